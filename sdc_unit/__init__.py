@@ -1,0 +1,1 @@
+"""sdc_unit package."""

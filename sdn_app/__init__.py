@@ -1,0 +1,1 @@
+"""sdn_app package."""
