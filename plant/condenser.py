@@ -1,0 +1,84 @@
+"""40 MVAr synchronous condenser: subtransient dq model (5th order), swing equation, SEXS AVR.
+
+p.u. on the condenser rating; the network sees E'' behind (ra + j x''), x''q = x''d (see
+network.py).  Machine frame (Sauer-Pai): V_net = (v_d + j v_q) e^{j(delta - pi/2)}, so
+E''_net = (e''_q - j e''_d) e^{j delta}.
+
+State x = [delta (rad), omega (p.u.), e'_q, e''_q, e''_d, x_ll (SEXS lead-lag), E_fd]::
+
+    T'd0  de'_q/dt  = E_fd - e'_q - (x_d - x'_d) i_d
+    T''d0 de''_q/dt = e'_q - e''_q - (x'_d - x''_d) i_d
+    T''q0 de''_d/dt = -e''_d + (x_q - x''_q) i_q          (x'_q = x_q: no q-axis transient winding)
+    2H    domega/dt = T_m - T_e - D (omega - 1),  T_m = 0,  T_e = e''_d i_d + e''_q i_q
+          ddelta/dt = OMEGA0 (omega - 1)
+    SEXS: u = V_ref - V_reg - m_q Q;  T_B dx_ll/dt = u - x_ll;  y = (T_A/T_B) u + (1 - T_A/T_B) x_ll
+          T_E dE_fd/dt = K y - E_fd,  E_fd clamped to [E_min, E_max] (non-windup)
+
+Simplifications: the (x'_d - x''_d)/(x'_d - x_l)^2 coupling terms of the full 6th-order model and
+saturation are neglected; stator transients are neglected (network is quasi-static).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant.params import OMEGA0, CondenserParams
+
+DELTA, OMEGA, EQ1, EQ2, ED2, XLL, EFD = range(7)
+NX = 7
+
+
+class Condenser:
+    def __init__(self, params: CondenserParams):
+        self.p = params
+        self.v_ref = 1.0
+        self.z2 = complex(params.ra, params.xd2)
+
+    def e_net(self, x) -> complex:
+        return complex(x[EQ2].real, -x[ED2].real) * np.exp(1j * x[DELTA].real)
+
+    def current(self, x, v_term: complex) -> complex:
+        """Stator current on the SC base, out of the machine, network frame."""
+        return (self.e_net(x) - v_term) / self.z2
+
+    def rhs(self, x, v_term: complex, v_reg: float):
+        p = self.p
+        i_net = self.current(x, v_term)
+        im = i_net * 1j * np.exp(-1j * x[DELTA].real)
+        i_d, i_q = im.real, im.imag
+        eq1, eq2, ed2 = x[EQ1].real, x[EQ2].real, x[ED2].real
+        efd = x[EFD].real
+        w = x[OMEGA].real
+        te = ed2 * i_d + eq2 * i_q
+        q = (v_term * i_net.conjugate()).imag
+        u = self.v_ref - v_reg - p.m_q * q
+        a = p.avr_ta_tb
+        y = a * u + (1.0 - a) * x[XLL].real
+        defd = (p.avr_k * y - efd) / p.avr_te
+        if (efd >= p.efd_max and defd > 0) or (efd <= p.efd_min and defd < 0):
+            defd = 0.0
+        dx = np.empty(NX, dtype=complex)
+        dx[DELTA] = OMEGA0 * (w - 1.0)
+        dx[OMEGA] = (-te - p.d * (w - 1.0)) / (2.0 * p.h)
+        dx[EQ1] = (efd - eq1 - (p.xd - p.xd1) * i_d) / p.td01
+        dx[EQ2] = (eq1 - eq2 - (p.xd1 - p.xd2) * i_d) / p.td02
+        dx[ED2] = (-ed2 + (p.xq - p.xd2) * i_q) / p.tq02
+        dx[XLL] = (u - x[XLL].real) / p.avr_tb
+        dx[EFD] = defd
+        return dx, i_net
+
+    def init_state(self, v_term: complex, v_reg: float) -> np.ndarray:
+        """No-load steady state (I = 0) at terminal voltage v_term; sets v_ref for zero error drift."""
+        p = self.p
+        x = np.zeros(NX, dtype=complex)
+        vm = abs(v_term)
+        x[DELTA] = np.angle(v_term)
+        x[OMEGA] = 1.0
+        x[EQ1] = vm
+        x[EQ2] = vm
+        x[ED2] = 0.0
+        x[EFD] = vm
+        u = vm / p.avr_k
+        x[XLL] = u
+        self.v_ref = v_reg + u
+        return x

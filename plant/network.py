@@ -1,0 +1,242 @@
+"""Quasi-static positive-sequence network of the wind farm, p.u. on the network base.
+
+Nodes (``topology="farm"``, N turbines, C clusters)::
+
+    0 .. N-1        turbine LV terminals (0.69 kV; filter capacitor cf as a shunt)
+    N .. N+C-1      cluster 66 kV nodes (each cluster's strings aggregated into one pi-section)
+    os_mv           offshore substation 66 kV bus
+    os_hv           offshore substation 220 kV bus (export cable sending end)
+    cable nodes     export_sections-1 internal nodes of the pi-section export cable
+    on_hv           onshore 220 kV bus (cable receiving end, shunt reactor)
+    pcc             onshore point of common coupling (grid Thevenin, SC step-up, load, fault)
+    sc              synchronous-condenser terminal (behind its step-up transformer)
+
+``topology="single"``: node 0 turbine terminal, node 1 pcc (turbine transformer between them),
+node 2 sc.
+
+Sources enter as Norton equivalents: converters inject their filter current (a pure current
+source, nothing in Y); the grid is E_g behind Z_g (Y_g on the pcc diagonal, E_g Y_g injected);
+the condenser is E'' behind (ra + j x'') (admittance on the sc diagonal, E'' Y'' injected).
+
+Y is factorised with a dense LU (``scipy.linalg.lu_factor``) and the explicit inverse is formed
+from the factors once, so every solve is one matrix-vector product. Y is rebuilt and refactored
+only by ``set_scr``, ``set_plugged``, ``set_fault`` and ``set_sc_connected`` (counted in
+``n_factorizations``).
+
+Single-phase-to-ground fault (sequence-network method): the positive-sequence network sees the
+fault as a shunt impedance Z_f1 = Z2 + Z0 + 3 Z_f at the fault node, where Z2 and Z0 are the
+negative- and zero-sequence Thevenin impedances at that node. Z2 = [Y^-1]_pcc,pcc of the
+fault-free positive-sequence Y (passive elements are symmetrical, x2 of the condenser = x''d,
+the grid's Z2 = Z1; grid-following converters inject no negative-sequence current, i.e. they
+are open circuits in the negative-sequence network). Z0 = k0 Z_g || Z_ontr || Z_sctr: both
+transformers are YNd with the grounded star on the pcc side, so the farm side and the condenser
+are cut off from the zero-sequence network. The positive-sequence voltages and currents are
+exact for this equivalent; phase quantities, sub-cycle peaks and DC offsets are not modelled.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.linalg as sla
+
+from plant.params import OMEGA0, PlantParams
+
+
+def _par(*zs: complex) -> complex:
+    return 1.0 / sum(1.0 / z for z in zs)
+
+
+class Network:
+    """Admittance matrix, its factorisation and the solve V = Y^-1 I."""
+
+    def __init__(self, params: PlantParams, n_turbines: int):
+        self.p = params
+        g = params.grid
+        self.n = n_turbines
+        self.sb = g.s_base_mva
+        self.k_t = params.turbine.s_rated_mva / self.sb  # turbine base -> network base (power/current)
+        self.k_sc = params.condenser.s_rated_mva / self.sb
+        self.plugged = np.ones(n_turbines, dtype=bool)
+        self.scr = g.scr
+        self.fault_on = False
+        self.z_f = 0.0j
+        self.sc_connected = params.sc_connected
+        self.n_factorizations = 0
+        self.topology = params.topology
+        n = n_turbines
+        if self.topology == "farm":
+            c = params.n_clusters
+            self.cluster_of = (np.arange(n) * c) // n
+            self.cluster_nodes = n + np.arange(c)
+            k = n + c
+            self.os_mv, self.os_hv = k, k + 1
+            ns = g.export_sections
+            self.cable_nodes = np.arange(k + 1, k + 2 + ns)  # os_hv ... on_hv (ns+1 nodes)
+            self.on_hv = int(self.cable_nodes[-1])
+            self.pcc = self.on_hv + 1
+            self.sc = self.pcc + 1
+        elif self.topology == "single":
+            self.cluster_of = np.zeros(n, dtype=int)
+            self.cluster_nodes = np.array([], dtype=int)
+            self.pcc, self.sc = n, n + 1
+            self.os_mv = self.os_hv = self.on_hv = self.pcc
+        else:
+            raise ValueError(f"unknown topology {self.topology!r}")
+        self.n_nodes = self.sc + 1
+        self.dirty = True
+        self.factorize()
+
+    # ---------------------------------------------------------------- element values
+    def z_grid(self) -> complex:
+        rx = self.p.grid.r_over_x
+        zmag = 1.0 / self.scr
+        x = zmag / np.sqrt(1.0 + rx * rx)
+        return complex(rx * x, x)
+
+    def z_sc_source(self) -> complex:
+        c = self.p.condenser
+        return complex(c.ra, c.xd2) / self.k_sc
+
+    def z_sc_tr(self) -> complex:
+        return complex(0.0, self.p.condenser.x_tr) / self.k_sc
+
+    def z_ontr(self) -> complex:
+        g = self.p.grid
+        return complex(g.r_ontr, g.x_ontr) * self.sb / g.s_ontr_mva
+
+    def _cable(self, km: float, r: float, l_mh: float, c_nf: float, v_kv: float):
+        zb = v_kv**2 / self.sb
+        z = complex(r * km, OMEGA0 * l_mh * 1e-3 * km) / zb
+        b = OMEGA0 * c_nf * 1e-9 * km * zb
+        return z, b
+
+    # ---------------------------------------------------------------- Y matrix
+    def build_y(self, with_fault: bool = True) -> np.ndarray:
+        g, t = self.p.grid, self.p.turbine
+        y = np.zeros((self.n_nodes, self.n_nodes), dtype=complex)
+
+        branches: list[tuple[int, int, complex]] = []
+
+        def branch(a: int, b: int, z: complex, bsh: float = 0.0) -> None:
+            branches.append((a, b, z))
+            ya = 1.0 / z
+            y[a, a] += ya + 0.5j * bsh
+            y[b, b] += ya + 0.5j * bsh
+            y[a, b] -= ya
+            y[b, a] -= ya
+
+        n = self.n
+        # filter capacitors (turbine base susceptance cf -> network base)
+        y[np.arange(n), np.arange(n)] += 1j * t.cf * self.k_t
+        z_ttr = complex(g.r_ttr, g.x_ttr) * self.sb / g.s_ttr_mva
+        for k in range(n):
+            if not self.plugged[k]:
+                continue
+            to = self.cluster_nodes[self.cluster_of[k]] if self.topology == "farm" else self.pcc
+            branch(k, int(to), z_ttr)
+        if self.topology == "farm":
+            za, ba = self._cable(g.array_km, g.array_r_ohm_km, g.array_l_mh_km, g.array_c_nf_km, g.v_array_kv)
+            for cn in self.cluster_nodes:
+                branch(int(cn), self.os_mv, za, ba)
+            branch(self.os_mv, self.os_hv, complex(g.r_otr, g.x_otr) * self.sb / g.s_otr_mva)
+            ns = g.export_sections
+            ze, be = self._cable(
+                g.export_km / ns, g.export_r_ohm_km, g.export_l_mh_km, g.export_c_nf_km, g.v_export_kv
+            )
+            for s in range(ns):
+                branch(int(self.cable_nodes[s]), int(self.cable_nodes[s + 1]), ze, be)
+            b_comp = g.comp_fraction * be * ns / 2.0  # half of the total charging at each end
+            y[self.os_hv, self.os_hv] -= 1j * b_comp
+            y[self.on_hv, self.on_hv] -= 1j * b_comp
+            branch(self.on_hv, self.pcc, self.z_ontr())
+        y[self.pcc, self.pcc] += 1.0 / self.z_grid()
+        branch(self.sc, self.pcc, self.z_sc_tr())
+        if self.sc_connected:
+            y[self.sc, self.sc] += 1.0 / self.z_sc_source()
+        if with_fault and self.fault_on:
+            y[self.pcc, self.pcc] += 1.0 / self.z_fault_shunt()
+        if with_fault:
+            self.branch_a = np.array([b[0] for b in branches])
+            self.branch_b = np.array([b[1] for b in branches])
+            self.branch_z = np.array([b[2] for b in branches])
+        return y
+
+    def series_losses(self, v: np.ndarray) -> float:
+        """Sum of R |I|^2 over all series branches (network base); shunts are lossless."""
+        i = (v[self.branch_a] - v[self.branch_b]) / self.branch_z
+        return float(np.sum(self.branch_z.real * np.abs(i) ** 2))
+
+    def z_fault_shunt(self) -> complex:
+        """Positive-sequence shunt Z2 + Z0 + 3 Z_f of a single-phase-to-ground fault at the pcc."""
+        y0 = self.build_y(with_fault=False)
+        e = np.zeros(self.n_nodes, dtype=complex)
+        e[self.pcc] = 1.0
+        self.z2col = np.linalg.solve(y0, e)  # negative-sequence transfer impedances to the pcc
+        z2 = self.z2col[self.pcc]
+        self.n_factorizations += 1
+        zs = [self.p.grid.k0_grid * self.z_grid(), self.z_sc_tr()]
+        if self.topology == "farm":
+            zs.append(self.z_ontr())
+        z0 = _par(*zs)
+        self.z2, self.z0 = z2, z0
+        return z2 + z0 + 3.0 * self.z_f
+
+    def fault_sequences(self, v1: np.ndarray):
+        """Sequence quantities during the fault from the solved positive-sequence voltages v1.
+
+        Returns (i_f, v2, v0_pcc): fault current I_f = I1 = I2 = I0 at the pcc, negative-sequence
+        node voltages v2 = -z2col I_f, and the pcc zero-sequence voltage -Z0 I_f.
+        """
+        if not self.fault_on:
+            return 0.0j, np.zeros_like(v1), 0.0j
+        i_f = v1[self.pcc] / (self.z2 + self.z0 + 3.0 * self.z_f)
+        return i_f, -self.z2col * i_f, -self.z0 * i_f
+
+    # ---------------------------------------------------------------- factorisation
+    def factorize(self) -> None:
+        self.y = self.build_y()
+        self.lu = sla.lu_factor(self.y)
+        self.zinv = sla.lu_solve(self.lu, np.eye(self.n_nodes, dtype=complex))
+        self.y_grid = 1.0 / self.z_grid()
+        self.y_sc = 1.0 / self.z_sc_source() if self.sc_connected else 0.0
+        # rows needed every step: turbine terminals, pcc, sc, os_mv
+        self.n_factorizations += 1
+        self.dirty = False
+
+    def ensure(self) -> None:
+        if self.dirty:
+            self.factorize()
+
+    def set_scr(self, scr: float) -> None:
+        self.scr = float(scr)
+        self.dirty = True
+
+    def set_plugged(self, idx, on: bool) -> None:
+        self.plugged[np.atleast_1d(idx)] = bool(on)
+        self.dirty = True
+
+    def set_fault(self, on: bool, z_f: complex = 0.0) -> None:
+        self.fault_on = bool(on)
+        self.z_f = complex(z_f)
+        self.dirty = True
+
+    def set_sc_connected(self, on: bool) -> None:
+        self.sc_connected = bool(on)
+        self.dirty = True
+
+    # ---------------------------------------------------------------- solve
+    def injections(self, i_turb, e_grid: complex, e_sc: complex, i_load: complex) -> np.ndarray:
+        """Node current injections (network base) from turbine currents on the turbine base."""
+        inj = np.zeros(self.n_nodes, dtype=complex)
+        inj[: self.n] = i_turb * self.k_t * self.plugged
+        inj[self.pcc] = e_grid * self.y_grid - i_load
+        inj[self.sc] = e_sc * self.y_sc
+        return inj
+
+    def solve(self, inj: np.ndarray) -> np.ndarray:
+        """V = Y^-1 I with the pre-factorised Y (one mat-vec with the stored inverse)."""
+        return self.zinv @ inj
+
+    def solve_lu(self, inj: np.ndarray) -> np.ndarray:
+        """Same solve through the LU factors (reference path)."""
+        return sla.lu_solve(self.lu, inj)

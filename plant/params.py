@@ -1,0 +1,219 @@
+"""Plant parameters: values only, no equations.
+
+Every field documents its unit, default and source tag:
+[paper] the SDViSC paper, [src: ...] a published source (see
+/work/shared/reference/PARAMETERS.md), [assumed] engineering judgement.
+
+Bases: the network is per-unit on ``GridParams.s_base_mva`` (500 MVA); turbine
+quantities are per-unit on the turbine rating (``TurbineParams.s_rated_mva``,
+0.69 kV); the condenser on its own rating.  Voltage bases are the nominal
+voltages of each bus, so a voltage in p.u. is the same number on every power base.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+OMEGA0 = 2.0 * math.pi * 50.0
+"""Nominal angular frequency of the common synchronous frame, rad/s [paper: 50 Hz]."""
+
+
+@dataclass
+class GridParams:
+    """Onshore grid, export system and collector (network base)."""
+
+    s_base_mva: float = 500.0
+    """Network power base, MVA [paper]."""
+    scr: float = 7.14
+    """Short-circuit ratio at the PCC on ``s_base_mva`` (|Z_grid| = 1/SCR p.u.), 7.14 strong [paper]."""
+    r_over_x: float = 0.1
+    """Grid Thevenin R/X, - [paper]."""
+    e_grid: float = 1.0
+    """Grid source EMF magnitude, p.u. [assumed]; lower it to reproduce an undervoltage case."""
+    h_grid: float = 0.0
+    """Grid source inertia on ``s_grid_mva``, s; 0 = ideal (infinite) source [assumed; H = 5 s suggested]."""
+    s_grid_mva: float = 3570.0
+    """Rating of the finite-inertia grid source, MVA [assumed: = SCR x 500 MVA]."""
+    d_grid: float = 1.0
+    """Grid source load-damping, p.u. power / p.u. speed on ``s_grid_mva`` [assumed]."""
+    r_gov: float = 0.05
+    """Grid governor droop, p.u. speed / p.u. power [assumed]; only with h_grid > 0."""
+    t_gov: float = 5.0
+    """Grid governor/turbine time constant, s [assumed]."""
+    k0_grid: float = 1.0
+    """Grid zero-sequence to positive-sequence impedance ratio Z0/Z1, - [assumed]."""
+    # collector / substation / export system (network base unless noted)
+    r_ttr: float = 0.005
+    """Turbine transformer resistance on its rating, p.u. [assumed]."""
+    x_ttr: float = 0.08
+    """Turbine transformer 0.69/66 kV leakage reactance on its rating, p.u. [src: PARAMETERS.md, assumed]."""
+    s_ttr_mva: float = 11.0
+    """Turbine transformer rating, MVA [src: PARAMETERS.md, assumed]."""
+    array_km: float = 5.0
+    """Equivalent length of one cluster's aggregated 66 kV string cable, km [assumed]."""
+    array_r_ohm_km: float = 0.04
+    """66 kV array cable resistance, ohm/km [src: WISDEM/ORBIT 630 mm2 XLPE]."""
+    array_l_mh_km: float = 0.35
+    """66 kV array cable inductance, mH/km [src: WISDEM/ORBIT]."""
+    array_c_nf_km: float = 300.0
+    """66 kV array cable capacitance, nF/km [src: WISDEM/ORBIT]."""
+    v_array_kv: float = 66.0
+    """Collector voltage, kV [paper]."""
+    x_otr: float = 0.14
+    """Offshore 66/220 kV transformer reactance on its rating, p.u. [src: PARAMETERS.md, assumed]."""
+    r_otr: float = 0.003
+    """Offshore transformer resistance on its rating, p.u. [assumed]."""
+    s_otr_mva: float = 600.0
+    """Offshore transformer rating, MVA [assumed]."""
+    v_export_kv: float = 220.0
+    """Export cable voltage, kV [assumed, PARAMETERS.md]."""
+    export_km: float = 50.0
+    """Export cable length, km [assumed]."""
+    export_r_ohm_km: float = 0.03
+    """Export cable resistance, ohm/km [assumed, typical 220 kV 1000 mm2]."""
+    export_l_mh_km: float = 0.40
+    """Export cable inductance, mH/km [assumed, typical]."""
+    export_c_nf_km: float = 190.0
+    """Export cable capacitance, nF/km [src: PARAMETERS.md / ORBIT]."""
+    export_sections: int = 3
+    """Number of pi-sections of the export cable, - [assumed]."""
+    comp_fraction: float = 0.5
+    """Fraction of the export cable charging compensated by shunt reactors (half at each end), - [assumed]."""
+    x_ontr: float = 0.12
+    """Onshore 220/400 kV transformer reactance on its rating, p.u. [assumed]."""
+    r_ontr: float = 0.003
+    """Onshore transformer resistance on its rating, p.u. [assumed]."""
+    s_ontr_mva: float = 600.0
+    """Onshore transformer rating, MVA [assumed]."""
+
+
+@dataclass
+class TurbineParams:
+    """One PMSG full-converter turbine (p.u. on its rating unless noted)."""
+
+    s_rated_mva: float = 10.0
+    """Turbine rating, MVA (= MW at unity pf) [paper]."""
+    v_rated_kv: float = 0.69
+    """Converter terminal voltage, kV [brief]."""
+    lf: float = 0.08
+    """Filter inductance, p.u. [src: D'Arco, Suul, Fosso EPSR 2015]."""
+    rf: float = 0.003
+    """Filter resistance, p.u. [src: D'Arco 2015]."""
+    cf: float = 0.074
+    """Filter capacitance (shunt at the terminal, quasi-static), p.u. [src: D'Arco 2015]."""
+    kpc: float = 1.27
+    """Current-controller proportional gain, p.u. voltage / p.u. current [src: D'Arco 2015]."""
+    kic: float = 14.3
+    """Current-controller integral gain, p.u. voltage / (p.u. current * s) [src: D'Arco 2015 value; time in s assumed]."""
+    i_max_gfl: float = 1.1
+    """Grid-following current limit (circular), p.u. [assumed]."""
+    m_max: float = 1.15
+    """Largest converter AC voltage per p.u. DC voltage (modulation limit), p.u./p.u. [assumed]."""
+    kp_pll: float = 0.25
+    """PLL proportional gain, p.u. speed / p.u. voltage (bandwidth ~ OMEGA0*kp = 79 rad/s) [assumed]."""
+    ki_pll: float = 10.0
+    """PLL integral gain, p.u. speed / (p.u. voltage * s) (zeta ~ 0.7) [assumed]."""
+    tau_dc: float = 0.008
+    """DC-link energy time constant C V_dc^2 / S_rated, s [src: PARAMETERS.md, assumed]."""
+    v_dc_ref: float = 1.0
+    """DC-link voltage reference, p.u. [assumed]."""
+    kp_dc: float = 2.0
+    """MSC DC-voltage PI proportional gain, p.u. power / p.u. voltage [src: PARAMETERS.md, assumed]."""
+    ki_dc: float = 50.0
+    """MSC DC-voltage PI integral gain, p.u. power / (p.u. voltage * s) [src: PARAMETERS.md, assumed]."""
+    p_me_min: float = -0.05
+    """Smallest machine-side power (motoring), p.u. [assumed]."""
+    p_me_max: float = 1.1
+    """Machine-side converter power rating, p.u. [assumed]."""
+    h_rotor: float = 4.0
+    """Single-mass drive train inertia (rotor + generator, stiff shaft), s [assumed]."""
+    v_wind_rated: float = 11.4
+    """Rated wind speed, m/s [assumed, IEA 10 MW class]."""
+    omega_r_ref: float = 1.0
+    """Rotor speed reference of the pitch controller, p.u. [assumed]."""
+    kp_beta: float = 150.0
+    """Pitch PI proportional gain, deg / p.u. speed [assumed]."""
+    ki_beta: float = 25.0
+    """Pitch PI integral gain, deg / (p.u. speed * s) [assumed]."""
+    tau_beta: float = 0.1
+    """Pitch servo time constant, s [src: PARAMETERS.md, assumed]."""
+    rate_beta: float = 8.0
+    """Pitch rate limit, deg/s [src: PARAMETERS.md, assumed]."""
+    beta_max: float = 30.0
+    """Largest pitch angle, deg [assumed]."""
+    v_chop: float = 1.15
+    """DC chopper (braking resistor) threshold, p.u. [assumed]."""
+    k_chop: float = 50.0
+    """DC chopper gain, p.u. power / p.u. overvoltage (max 1.5 p.u. power) [assumed]."""
+    r_batt: float = 0.02
+    """Battery internal resistance on the DC side, p.u. on turbine rating/DC base [assumed]."""
+    v_batt: float = 1.0
+    """Battery open-circuit voltage, p.u. of DC base [assumed]; SOC not modelled (2000 Ah >> seconds)."""
+    remote_loss_fallback_s: float = 0.1
+    """Remote mode: time without a new reference before falling back to grid-following, s [brief]."""
+
+
+@dataclass
+class CondenserParams:
+    """40 MVAr synchronous condenser, p.u. on its own rating."""
+
+    s_rated_mva: float = 40.0
+    """Rating, MVA [paper]."""
+    h: float = 1.2
+    """Inertia constant, s [assumed, typical]."""
+    d: float = 0.0
+    """Mechanical damping, p.u. torque / p.u. speed [assumed]."""
+    xd: float = 1.8
+    """d-axis synchronous reactance, p.u. [assumed, typical]."""
+    xq: float = 1.7
+    """q-axis synchronous reactance, p.u. [assumed, typical]."""
+    xd1: float = 0.30
+    """d-axis transient reactance x'd, p.u. [assumed, typical]."""
+    xd2: float = 0.20
+    """Subtransient reactance x''d = x''q, p.u. [assumed, typical]."""
+    td01: float = 7.0
+    """T'd0, s [assumed, typical]."""
+    td02: float = 0.04
+    """T''d0, s [assumed, typical]."""
+    tq02: float = 0.06
+    """T''q0, s [assumed, typical]."""
+    ra: float = 0.003
+    """Armature resistance, p.u. [assumed, typical]."""
+    x_tr: float = 0.10
+    """Step-up transformer reactance on the SC rating, p.u. [assumed]."""
+    avr_k: float = 200.0
+    """SEXS gain K, p.u./p.u. [src: Kundur two-area]."""
+    avr_ta_tb: float = 0.1
+    """SEXS TA/TB, - [src: Kundur two-area]."""
+    avr_tb: float = 10.0
+    """SEXS TB, s [src: Kundur two-area]."""
+    avr_te: float = 0.1
+    """SEXS TE, s [src: Kundur two-area]."""
+    efd_max: float = 4.0
+    """Field voltage ceiling, p.u. [src: Kundur two-area]."""
+    efd_min: float = 0.0
+    """Field voltage floor, p.u. [assumed]."""
+    m_q: float = 0.02
+    """AVR reactive droop (V = V_ref - m_q Q, Q on SC rating), p.u./p.u. [paper: 0.02]."""
+    avr_bus: str = "pcc"
+    """Bus whose voltage the AVR regulates: "pcc" or "terminal" [assumed: "pcc", the paper plots the PCC]."""
+
+
+@dataclass
+class PlantParams:
+    """All plant parameters."""
+
+    grid: GridParams = field(default_factory=GridParams)
+    turbine: TurbineParams = field(default_factory=TurbineParams)
+    condenser: CondenserParams = field(default_factory=CondenserParams)
+    n_clusters: int = 5
+    """Number of clusters, - [paper]."""
+    v_wind: float = 12.0
+    """Wind speed at every turbine, m/s [assumed: slightly above rated, pitch-regulated rated output]."""
+    sc_connected: bool = True
+    """Synchronous condenser in service, - [paper: connected for the SC cases]."""
+    topology: str = "farm"
+    """"farm" (the 500 MW farm) or "single" (one turbine behind its transformer on an infinite bus)."""
+    visc_params: object | None = None
+    """sdc_unit.params.ViscParams for ``hd_visc`` turbines (None: ViscParams() when first needed)."""

@@ -1,0 +1,311 @@
+"""The real-time plant service: one process paces the plant model to the wall clock and serves
+every turbine's GTNET-SKT endpoint from inside that turbine's Mininet host.
+
+``python -m plant.service --config FILE`` (the runner writes FILE). Per turbine it opens one UDP
+socket in the turbine host's network namespace (bound to the turbine IP, port
+``wire.PORT_TURBINE``). A turbine starts streaming measurements to its SDC only when the SDN
+application tells it to (``REQUEST STREAM_START``, which also names the SDC); from then on, each
+step it sends one ``MEAS``, applies the newest ``CTRL`` it received (hold last value; fall back
+after the model's loss time), and every ``ak_period_s`` reports ``AK`` (1 when a ``CTRL`` arrived
+within ``ak_window_s``) to the SDN application. Scenario events arrive as JSON lines on stdin.
+Malformed packets are dropped and counted, never applied.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import select
+import signal
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from plant.recorder import Recorder
+from sdvisc import wire
+from sdvisc.netns import raise_priority, udp_socket_in
+from sdvisc.stats import delay_summary
+
+
+@dataclass
+class Endpoint:
+    """One turbine's network endpoint and its packet counters."""
+
+    name: str
+    wid: int
+    index: int
+    sock: object
+    streaming: bool = False
+    sdc_addr: tuple[str, int] | None = None
+    meas_seq: int = 0
+    ak_seq: int = 0
+    ctrl_seq: int = -1
+    last_ctrl_wall: float = float("-inf")
+    counts: dict = field(default_factory=lambda: {"meas_tx": 0, "ctrl_rx": 0, "ak_tx": 0, "ctrl_stale": 0,
+                                                  "rx_rejected": 0, "requests_rx": 0})
+    first_meas_tx_t: float | None = None
+    first_ctrl_rx_t: float | None = None
+    last_ctrl_rx_t: float | None = None
+    ctrl_delays_ms: list = field(default_factory=list)
+    ak_ones: int = 0
+
+
+def build_model(cfg: dict, n: int):
+    kind = cfg.get("model", "minimal")
+    step_s = cfg["step_s"]
+    if kind == "minimal":
+        from plant.minimal import MinimalPlant
+
+        return MinimalPlant(n, step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1))
+    if kind == "full":
+        from plant.sim import Plant
+        from plant.params import PlantParams
+
+        return Plant(PlantParams(), n_turbines=n, step_s=step_s)
+    raise ValueError(f"unknown plant model {kind!r}")
+
+
+class PlantService:
+    """The paced loop; see the module docstring."""
+
+    def __init__(self, cfg: dict) -> None:
+        self.cfg = cfg
+        self.step_s = float(cfg["step_s"])
+        self.n_steps = int(round(cfg["duration_s"] / self.step_s))
+        self.header = bool(cfg.get("header", True))
+        self.vip = cfg["controller_vip"]
+        self.ak_every = max(1, int(round(cfg.get("ak_period_s", 0.01) / self.step_s)))
+        self.ak_window_s = float(cfg.get("ak_window_s", 0.01))
+        self.out_dir = Path(cfg["out_dir"])
+        self.endpoints: list[Endpoint] = []
+        for i, t in enumerate(cfg["turbines"]):
+            sock = udp_socket_in(t.get("pid"), t["ip"], wire.PORT_TURBINE)
+            self.endpoints.append(Endpoint(t["name"], t["wid"], i, sock))
+        self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
+        self.model = build_model(cfg, len(self.endpoints))
+        self.rx_stats = wire.DecodeStats()
+        self.late_steps = 0
+        self.max_lateness_s = 0.0
+        self.k = 0
+        self.events_applied: list[dict] = []
+        record = cfg.get("record", [])
+        self.recorder = Recorder(self.out_dir / "timeseries.csv", [ep for ep in self.endpoints if ep.name in record],
+                                 every=max(1, int(cfg.get("record_every", 15))))
+        self.poller = select.epoll()
+        for fd in self.by_fd:
+            self.poller.register(fd, select.EPOLLIN)
+        self.stdin_open = cfg.get("stdin_commands", True)
+        if self.stdin_open:
+            os.set_blocking(sys.stdin.fileno(), False)
+            self.poller.register(sys.stdin.fileno(), select.EPOLLIN)
+        self._stdin_buf = b""
+        self.stop_requested = False
+
+    # ------------------------------------------------------------------ receive
+    def _drain(self, now: float) -> None:
+        for fd, _ in self.poller.poll(0):
+            if fd == sys.stdin.fileno() and self.stdin_open:
+                self._read_stdin()
+                continue
+            ep = self.by_fd[fd]
+            while True:
+                try:
+                    data, addr = ep.sock.recvfrom(2048)
+                except BlockingIOError:
+                    break
+                msg = self.rx_stats.decode(data, header=self.header)
+                if msg is None or msg["wt"] != ep.wid:
+                    ep.counts["rx_rejected"] += 1
+                    continue
+                if msg.type == wire.MsgType.CTRL:
+                    self._on_ctrl(ep, msg, now)
+                elif msg.type == wire.MsgType.REQUEST:
+                    self._on_request(ep, msg)
+                else:
+                    ep.counts["rx_rejected"] += 1
+
+    def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
+        if msg["seq"] <= ep.ctrl_seq:  # duplicate or out of order: never apply an older value
+            ep.counts["ctrl_stale"] += 1
+            return
+        ep.ctrl_seq = msg["seq"]
+        ep.counts["ctrl_rx"] += 1
+        ep.last_ctrl_wall = now
+        t_sim = self.k * self.step_s
+        ep.last_ctrl_rx_t = t_sim
+        if ep.first_ctrl_rx_t is None:
+            ep.first_ctrl_rx_t = t_sim
+        if msg.header is not None and len(ep.ctrl_delays_ms) < 200_000:
+            ep.ctrl_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
+        if ep.streaming:
+            self.model.apply_remote(np.array([ep.index]), np.array([msg["v_ref_d"]]), np.array([msg["v_ref_q"]]))
+
+    def _on_request(self, ep: Endpoint, msg: wire.Message) -> None:
+        ep.counts["requests_rx"] += 1
+        cmd = msg["cmd"]
+        t_sim = self.k * self.step_s
+        if cmd == wire.Command.STREAM_START:
+            ep.streaming = True
+            ep.sdc_addr = (wire.i32_to_ip(msg["sdc_ip"]), wire.PORT_SDC)
+            self.model.set_mode(ep.index, "remote")
+            self.events_applied.append({"t": t_sim, "type": "stream_start", "wt": ep.name, "sdc": ep.sdc_addr[0]})
+        elif cmd == wire.Command.STREAM_STOP:
+            ep.streaming = False
+            self.model.set_mode(ep.index, "grid_following")
+            self.events_applied.append({"t": t_sim, "type": "stream_stop", "wt": ep.name})
+
+    def _read_stdin(self) -> None:
+        try:
+            chunk = os.read(sys.stdin.fileno(), 65536)
+        except BlockingIOError:
+            return
+        if not chunk:
+            self.poller.unregister(sys.stdin.fileno())
+            self.stdin_open = False
+            return
+        self._stdin_buf += chunk
+        while b"\n" in self._stdin_buf:
+            line, self._stdin_buf = self._stdin_buf.split(b"\n", 1)
+            if line.strip():
+                self._apply_event(json.loads(line))
+
+    def _apply_event(self, event: dict) -> None:
+        kind = event["type"]
+        m = self.model
+        if kind == "stop":
+            self.stop_requested = True
+        elif kind == "load_step":
+            m.load_step(float(event["mw"]))
+        elif kind == "fault":
+            m.fault(bool(event.get("on", True)))
+        elif kind == "scr":
+            m.set_scr(float(event["value"]))
+        elif kind == "set":
+            setter = getattr(m, f"set_{event['param']}", None)
+            if setter is None:
+                raise ValueError(f"plant has no settable parameter {event['param']!r}")
+            setter(event["value"])
+        else:
+            raise ValueError(f"plant cannot apply event {kind!r}")
+        self.events_applied.append({"t": self.k * self.step_s, **event})
+
+    # ------------------------------------------------------------------ send
+    def _send(self, now: float) -> None:
+        streaming = [ep for ep in self.endpoints if ep.streaming]
+        if not streaming:
+            return
+        meas = self.model.measurements()
+        t_sim = self.k * self.step_s
+        sec = int(now)
+        nsec = int((now - sec) * 1e9)
+        send_ak = self.k % self.ak_every == 0
+        for ep in streaming:
+            i = ep.index
+            ep.meas_seq += 1
+            values = {"wt": ep.wid, "seq": ep.meas_seq, "t_sim": t_sim,
+                      **{key: float(meas[key][i]) for key in ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")}}
+            hdr = wire.Header(ep.meas_seq, sec, nsec) if self.header else None
+            try:
+                ep.sock.sendto(wire.encode(wire.MsgType.MEAS, values, header=hdr), ep.sdc_addr)
+                ep.counts["meas_tx"] += 1
+                if ep.first_meas_tx_t is None:
+                    ep.first_meas_tx_t = t_sim
+            except OSError:
+                ep.counts.setdefault("meas_tx_error", 0)
+                ep.counts["meas_tx_error"] += 1
+            if send_ak:
+                self._send_ak(ep, now, sec, nsec)
+
+    def _send_ak(self, ep: Endpoint, now: float, sec: int, nsec: int) -> None:
+        ep.ak_seq += 1
+        ak = int(now - ep.last_ctrl_wall <= self.ak_window_s)
+        ep.ak_ones += ak
+        age_ms = min((now - ep.last_ctrl_wall) * 1e3, 1e6)
+        values = {"wt": ep.wid, "seq": ep.ak_seq, "ak": ak, "ctrl_rx": ep.counts["ctrl_rx"], "ctrl_age_ms": age_ms}
+        hdr = wire.Header(ep.ak_seq, sec, nsec) if self.header else None
+        try:
+            ep.sock.sendto(wire.encode(wire.MsgType.AK, values, header=hdr), (self.vip, wire.PORT_CONTROLLER))
+            ep.counts["ak_tx"] += 1
+        except OSError:
+            pass
+
+    # ------------------------------------------------------------------ loop
+    def _write_status(self, now: float) -> None:
+        status = {"t_sim": self.k * self.step_s, "steps": self.k, "n_steps": self.n_steps,
+                  "late_steps": self.late_steps, "t_wall": now,
+                  "meas_tx": sum(ep.counts["meas_tx"] for ep in self.endpoints),
+                  "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in self.endpoints),
+                  "streaming": [ep.name for ep in self.endpoints if ep.streaming]}
+        tmp = self.out_dir / "plant_status.json.tmp"
+        tmp.write_text(json.dumps(status))
+        tmp.replace(self.out_dir / "plant_status.json")
+
+    def run(self) -> None:
+        t0 = float(self.cfg.get("t0_wall") or time.time())
+        status_every = max(1, int(0.1 / self.step_s))
+        while self.k < self.n_steps and not self.stop_requested:
+            scheduled = t0 + self.k * self.step_s
+            now = time.time()
+            if now < scheduled:
+                time.sleep(scheduled - now)
+                now = time.time()
+            lateness = now - scheduled
+            if lateness > self.step_s:
+                self.late_steps += 1
+            self.max_lateness_s = max(self.max_lateness_s, lateness)
+            self._drain(now)
+            self.model.step()
+            self.k += 1
+            self._send(now)
+            self.recorder.maybe_record(self.k, self.model)
+            if self.k % status_every == 0:
+                self._write_status(now)
+        self._write_status(time.time())
+
+    def summary(self) -> dict:
+        return {
+            "steps": self.k,
+            "scheduling": getattr(self, "scheduling", "default"),
+            "late_steps": self.late_steps,
+            "max_lateness_ms": self.max_lateness_s * 1e3,
+            "rx_wire": self.rx_stats.as_dict(),
+            "events": self.events_applied,
+            "turbines": {
+                ep.name: {**ep.counts, "first_meas_tx_t": ep.first_meas_tx_t, "first_ctrl_rx_t": ep.first_ctrl_rx_t,
+                          "last_ctrl_rx_t": ep.last_ctrl_rx_t, "ak_ones": ep.ak_ones,
+                          "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms)}
+                for ep in self.endpoints
+            },
+        }
+
+    def close(self) -> None:
+        self.recorder.close()
+        for ep in self.endpoints:
+            ep.sock.close()
+        self.poller.close()
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m plant.service", description=__doc__)
+    parser.add_argument("--config", required=True)
+    args = parser.parse_args(argv)
+    cfg = json.loads(Path(args.config).read_text())
+    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
+    service = PlantService(cfg)
+    service.scheduling = raise_priority() if cfg.get("realtime_priority", True) else "default"
+    try:
+        service.run()
+    except KeyboardInterrupt:
+        pass
+    finally:
+        service.close()
+        (Path(cfg["out_dir"]) / "plant_stats.json").write_text(json.dumps(service.summary(), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,203 @@
+"""Vectorised PMSG full-converter turbines (p.u. on the turbine rating, common frame at OMEGA0).
+
+State of every turbine (rows of one complex array ``S`` of shape (NS, N); rows flagged real keep
+a zero imaginary part)::
+
+    I    filter-inductor current i = i_d + j i_q (complex, converter -> grid positive)
+    XI   current-PI integrator, PLL frame (complex)
+    TH   PLL angle theta versus the common frame, rad
+    XP   PLL integrator (frequency deviation), p.u.
+    W    DC-link w = v_dc^2, p.u.
+    XD   machine-side DC-voltage PI integrator, p.u. power
+    WR   rotor speed, p.u.
+    B    pitch angle, deg
+    XB   pitch PI integrator, deg
+
+Equations (t in s, w0 = OMEGA0):
+
+    (lf/w0) di/dt = v_conv - v - (rf + j lf) i                  filter in the common frame
+    v_conv limited to |v_conv| <= m_max v_dc                     average model, DC-limited
+    grid-following (PLL frame, rot = e^{j theta}):
+        e_v = Im(v e^{-j theta}) / |v|,  dtheta/dt = w0 (kp_pll e_v + x_p), dx_p/dt = ki_pll e_v
+        i* = (P* - j(-Q*)) / V_d  (circular limit i_max_gfl),  e = i* - i e^{-j theta}
+        v_conv = v + j lf i + (kpc e + kic xi) e^{j theta},  dxi/dt = e  (frozen while DC-limited)
+    hd_visc: v_conv = sdc_unit.law.outputs(x, meas).v_ref (law states integrated by the plant)
+    remote:  v_conv = last received reference (held)
+    DC link: (tau_dc/2) d(v_dc^2)/dt = P_me + P_batt - P_conv - P_chop,  P_conv = Re(v_conv conj(i))
+             P_chop = min(k_chop max(v_dc - v_chop, 0), 1.5)   (braking chopper)
+    MSC:     P_me = clip(kp_dc (v_dc* - v_dc) + x_d, p_me_min, P_avail), dx_d/dt = ki_dc (v_dc* - v_dc)
+             (the MSC current loop is taken as ideal: i_sd* from the PI, i_sq* = 0, so P_me follows)
+    battery: P_batt = v_dc (v_batt - v_dc) / r_batt   (only where enabled)
+    rotor (single mass, stiff shaft, rotor+generator inertia lumped):
+             2 h_rotor w_r dw_r/dt = P_aero - P_me
+    aero:    P_aero = (Cp(lambda, beta)/Cp_opt) (v_w / v_rated)^3,  lambda = lambda_opt w_r v_rated / v_w
+             Cp: Heier/Slootweg formula; P_avail = min(p_me_max, P_aero(beta = 0))
+    pitch:   beta* = clip(kp_b (w_r - w_ref) + x_b, 0, beta_max), dx_b/dt = ki_b (w_r - w_ref),
+             dbeta/dt = clip((beta* - beta)/tau_b, -rate, rate)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant.params import OMEGA0, TurbineParams
+
+I, XI, TH, XP, W, XD, WR, B, XB = range(9)
+NS = 9
+
+GFL, HD_VISC, REMOTE = 0, 1, 2
+MODES = {"grid_following": GFL, "hd_visc": HD_VISC, "remote": REMOTE}
+MODE_NAMES = {v: k for k, v in MODES.items()}
+
+
+def cp_heier(lam, beta):
+    """Power coefficient (Heier / Slootweg), beta in degrees."""
+    li = 1.0 / (lam + 0.08 * beta) - 0.035 / (beta**3 + 1.0)
+    return 0.5176 * (116.0 * li - 0.4 * beta - 5.0) * np.exp(-21.0 * li) + 0.0068 * lam
+
+
+_LAM = np.linspace(2.0, 14.0, 12001)
+_CPS = cp_heier(_LAM, 0.0)
+LAMBDA_OPT = float(_LAM[np.argmax(_CPS)])
+CP_OPT = float(np.max(_CPS))
+
+
+class TurbineBank:
+    """Parameters, modes and the right-hand side of N turbines."""
+
+    def __init__(self, params: TurbineParams, n: int, v_wind: float):
+        self.p = params
+        self.n = n
+        self.v_wind = np.full(n, float(v_wind))
+        self.mode = np.zeros(n, dtype=int)
+        self.battery = np.zeros(n, dtype=bool)
+        self.q_cmd = np.zeros(n)
+        self.p_cmd = np.minimum(1.0, (self.v_wind / params.v_wind_rated) ** 3)
+        self.v_hold = np.zeros(n, dtype=complex)
+        self.last_rx_step = np.zeros(n, dtype=np.int64)
+        self.fallback_enabled = True
+        self.fell_back = np.zeros(n, dtype=bool)
+        self.slow = None  # (P_aero, P_avail) held over one plant step, or None = evaluate every stage
+
+    def hold_slow(self, S) -> None:
+        """Evaluate aerodynamics once per plant step (zero-order hold; rotor/pitch act in seconds)."""
+        wr = S[WR].real
+        self.slow = (self.p_aero(wr, S[B].real), self.p_avail(wr))
+
+    # ------------------------------------------------------------------ aero
+    def p_aero(self, wr, beta):
+        vr = self.v_wind / self.p.v_wind_rated
+        lam = LAMBDA_OPT * np.maximum(wr, 0.05) / vr
+        return np.maximum(cp_heier(lam, beta), 0.0) / CP_OPT * vr**3
+
+    def p_avail(self, wr):
+        return np.minimum(self.p.p_me_max, self.p_aero(wr, 0.0))
+
+    # ------------------------------------------------------------------ controls
+    def gfl_vconv(self, S, v):
+        """Grid-following converter voltage (unlimited) and PLL error."""
+        p = self.p
+        i = S[I]
+        rot = np.exp(1j * S[TH].real)
+        vp = v * rot.conj()
+        vmag = np.maximum(np.abs(v), 0.1)
+        ev = vp.imag / vmag
+        vd = np.maximum(vp.real, 0.3)
+        iref = (self.p_cmd + 1j * self.q_cmd) .conjugate() / vd
+        im = np.abs(iref)
+        iref = np.where(im > p.i_max_gfl, iref * (p.i_max_gfl / np.maximum(im, 1e-9)), iref)
+        e = iref - i * rot.conj()
+        vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot
+        return vconv, e, ev
+
+    def pll_error(self, S, v):
+        vp = v * np.exp(-1j * S[TH].real)
+        return vp.imag / np.maximum(np.abs(v), 0.1)
+
+    # ------------------------------------------------------------------ rhs
+    def rhs(self, S, v, vconv_ext, ext_mask):
+        """Derivatives of S given terminal voltage v (turbine p.u.) and external converter refs.
+
+        ``vconv_ext`` holds the converter voltage for turbines where ``ext_mask`` is True
+        (remote and hd_visc); the others run grid-following.  Returns (dS, aux).
+        """
+        p = self.p
+        i = S[I]
+        vconv_gfl, e, ev = self.gfl_vconv(S, v)
+        vconv = np.where(ext_mask, vconv_ext, vconv_gfl)
+        vdc = np.sqrt(np.maximum(S[W].real, 1e-4))
+        vmax = p.m_max * vdc
+        vm = np.abs(vconv)
+        lim = vm > vmax
+        vconv = np.where(lim, vconv * (vmax / np.maximum(vm, 1e-9)), vconv)
+        pconv = (vconv * i.conj()).real
+        # machine side
+        wr = S[WR].real
+        beta = S[B].real
+        edc = p.v_dc_ref - vdc
+        pme_u = p.kp_dc * edc + S[XD].real
+        if self.slow is None:
+            paero, pav = self.p_aero(wr, beta), self.p_avail(wr)
+        else:
+            paero, pav = self.slow
+        pme = np.maximum(np.minimum(pme_u, pav), p.p_me_min)
+        aw_dc = ((pme_u > pav) & (edc > 0)) | ((pme_u < p.p_me_min) & (edc < 0))
+        pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0)
+        ew = wr - p.omega_r_ref
+        bref_u = p.kp_beta * ew + S[XB].real
+        bref = np.maximum(np.minimum(bref_u, p.beta_max), 0.0)
+        aw_b = ((bref_u <= 0.0) & (ew < 0)) | ((bref_u >= p.beta_max) & (ew > 0))
+
+        dS = np.empty_like(S)
+        dS[I] = (OMEGA0 / p.lf) * (vconv - v - (p.rf + 1j * p.lf) * i)
+        dS[XI] = np.where(lim | ext_mask, 0.0, e)
+        dS[TH] = OMEGA0 * (p.kp_pll * ev + S[XP].real)
+        dS[XP] = p.ki_pll * ev
+        pchop = np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
+        dS[W] = (2.0 / p.tau_dc) * (pme + pbatt - pconv - pchop)
+        dS[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
+        dS[WR] = (paero - pme) / (2.0 * p.h_rotor * np.maximum(wr, 0.1))
+        dS[B] = np.maximum(np.minimum((bref - beta) / p.tau_beta, p.rate_beta), -p.rate_beta)
+        dS[XB] = np.where(aw_b, 0.0, p.ki_beta * ew)
+        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": paero,
+               "omega_meas": 1.0 + p.kp_pll * ev + S[XP].real, "vlim": lim}
+        return dS, aux
+
+    # ------------------------------------------------------------------ initialisation
+    def init_state(self, v, i):
+        """Steady state for grid-following operation at terminal voltage v and current i."""
+        p = self.p
+        n = self.n
+        S = np.zeros((NS, n), dtype=complex)
+        S[I] = i
+        th = np.angle(v)
+        S[TH] = th
+        vconv = v + (p.rf + 1j * p.lf) * i
+        S[XI] = p.rf * i * np.exp(-1j * th) / p.kic
+        S[W] = p.v_dc_ref**2
+        pconv = (vconv * i.conj()).real
+        S[XD] = pconv
+        S[WR] = p.omega_r_ref
+        # pitch: bisection for P_aero(1, beta) = pconv (beta >= 0)
+        lo, hi = np.zeros(n), np.full(n, p.beta_max)
+        for _ in range(50):
+            mid = 0.5 * (lo + hi)
+            too_much = self.p_aero(np.ones(n), mid) > pconv
+            lo = np.where(too_much, mid, lo)
+            hi = np.where(too_much, hi, mid)
+        beta = np.where(self.p_aero(np.ones(n), 0.0) > pconv, 0.5 * (lo + hi), 0.0)
+        S[B] = beta
+        S[XB] = beta
+        return S
+
+    def bumpless_gfl(self, S, v, idx, vconv_now):
+        """Switch turbines idx to grid-following keeping v_conv continuous (P* = present P, Q* = 0)."""
+        p = self.p
+        i = S[I, idx]
+        s_now = v[idx] * i.conj()
+        self.p_cmd[idx] = s_now.real
+        self.q_cmd[idx] = 0.0
+        self.mode[idx] = GFL
+        vconv_gfl, e, _ = self.gfl_vconv(S, v)
+        rot = np.exp(1j * S[TH, idx].real)
+        S[XI, idx] = ((vconv_now - v[idx] - 1j * p.lf * i) * rot.conj() - p.kpc * e[idx]) / p.kic

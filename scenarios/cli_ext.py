@@ -1,0 +1,68 @@
+"""The Mininet CLI, extended for the testbed (``sdvisc run --cli``).
+
+Mininet's own commands work as usual (``link s1 s3 down``, ``pingall``, ``dpctl dump-flows``…);
+the commands below add the testbed's view. Each ``do_*`` docstring is its ``help`` text.
+"""
+
+from __future__ import annotations
+
+import json
+
+from mininet.cli import CLI
+
+
+class TestbedCLI(CLI):
+    """Mininet CLI with ``status``, ``tables``, ``visc``, ``paths`` and ``flows``."""
+
+    prompt = "sdvisc> "
+
+    def __init__(self, net, run=None, **kwargs):
+        self.run = run
+        super().__init__(net, **kwargs)
+
+    def do_status(self, _line):
+        """status: simulated time, late steps, packets, ViSC turbines and down links."""
+        st = self.run.plant_status() or {}
+        sdn = self.run.sdn_state() or {}
+        tables = sdn.get("tables", {})
+        print(f"t_sim={st.get('t_sim', 0):.2f}/{self.run.scenario.duration_s:.2f} s  late_steps={st.get('late_steps', 0)}"
+              f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
+        print(f"ViSC turbines: {', '.join(st.get('streaming', [])) or '-'}   active SDC: {tables.get('active_sdc')}")
+        print(f"down links: {tables.get('down_links') or '-'}   openflow: {sdn.get('openflow', {})}")
+
+    def do_tables(self, line):
+        """tables [WT]: the SDN app's T1 (address), T2 (mode x/y) and T3 (communication x/y)."""
+        tables = (self.run.sdn_state() or {}).get("tables", {})
+        names = sorted(tables.get("T1", {}))
+        if line.strip():
+            names = [n for n in names if n == line.strip()]
+        print(f"{'turbine':8} {'IP':12} {'MAC':18} {'attach':10} T2   T3")
+        for n in names:
+            a = tables["T1"][n]
+            print(f"{n:8} {a['ip']:12} {a['mac']:18} {a['switch'] + ':' + str(a['port']):10} "
+                  f"{tables['T2'].get(n, '?'):4} {tables['T3'].get(n, '?')}")
+
+    def do_paths(self, _line):
+        """paths: the installed path of every ViSC turbine."""
+        paths = (self.run.sdn_state() or {}).get("tables", {}).get("paths", {})
+        for n, p in sorted(paths.items()):
+            print(f"{n}: {' -> '.join(p['path'])}")
+        if not paths:
+            print("no paths installed")
+
+    def do_visc(self, line):
+        """visc WT on|off [h=3 m_q=0.02 ...]: ask (as the OWFCC) for turbine WT to run as ViSC, or stop."""
+        parts = line.split()
+        if len(parts) < 2 or parts[1] not in ("on", "off"):
+            print("usage: visc WT on|off [param=value ...]")
+            return
+        params = {}
+        for item in parts[2:]:
+            key, _, value = item.partition("=")
+            params[key] = float(value)
+        self.run._to_stdin("owfcc.owfcc", {"cmd": f"visc_{parts[1]}", "wt": parts[0], "params": params})
+        print(f"requested visc_{parts[1]} for {parts[0]}")
+
+    def do_summary(self, _line):
+        """summary: the SDN app's counters as JSON."""
+        print(json.dumps((self.run.sdn_state() or {}).get("counters", {}), indent=1))

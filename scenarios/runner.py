@@ -1,0 +1,331 @@
+"""Play a scenario on real Mininet hosts, Open vSwitch bridges and the os-ken SDN application.
+
+:func:`run_scenario` builds the network, starts the SDN app, the SDC(s), the OWFCC and the plant,
+plays the timeline against the wall clock (progress bar and status line on the terminal), writes
+``summary.json``, ``events.jsonl`` and ``timeseries.csv`` to the output directory, and tears
+everything down on every exit path (normal end, exception, Ctrl-C, SIGTERM).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+from scenarios.schema import Scenario
+from scenarios.summary import build_summary
+from sdvisc import cleanup, wire
+from topologies import topos
+from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, TestbedSwitch, default_datapath, describe
+
+SWITCH_CONNECT_TIMEOUT_S = 30.0
+START_MARGIN_S = 0.5
+
+
+class RunError(RuntimeError):
+    """The run could not be set up or did not complete."""
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _raise_interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
+class Run:
+    """One scenario run; use :func:`run_scenario`."""
+
+    def __init__(self, scenario: Scenario, out_dir: Path, *, quiet: bool = False) -> None:
+        self.scenario = scenario
+        self.out = out_dir
+        self.quiet = quiet
+        self.net = None
+        self.procs: dict[str, subprocess.Popen] = {}
+        self.timeline_events: list[dict] = []
+        self.t0: float | None = None
+        self.desc: dict | None = None
+        self.python = sys.executable
+        self._stdin_lock = threading.Lock()
+        self.finished = threading.Event()
+        self.datapath = default_datapath()
+
+    # ------------------------------------------------------------------ set-up
+    def _say(self, text: str) -> None:
+        if not self.quiet:
+            print(text, flush=True)
+
+    def _write_json(self, name: str, data: dict) -> Path:
+        path = self.out / name
+        path.write_text(json.dumps(data, indent=1))
+        return path
+
+    def _popen(self, name: str, args: list[str], host=None, stdin=None) -> subprocess.Popen:
+        log = open(self.out / f"{name}.log", "w")  # noqa: SIM115 - owned by the process
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        if host is None:
+            proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
+                                    start_new_session=True)
+        else:
+            proc = host.popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env)
+        self.procs[name] = proc
+        return proc
+
+    def build(self) -> None:
+        from mininet.log import setLogLevel
+        from mininet.net import Mininet
+        from mininet.node import RemoteController
+
+        setLogLevel("warning")
+        sc = self.scenario
+        topo = topos[sc.topology.name](**sc.topology.params())
+        self.desc = describe(topo)
+        port = _free_port()
+        app_cfg = {"topology": self.desc, "controller_vip": CONTROLLER_VIP, "controller_vmac": CONTROLLER_VMAC,
+                   "visc_disabled": sc.sdn.visc_disabled, "dr_hold_s": sc.sdn.dr_hold_s,
+                   "backup_sdc": "sdc2" if sc.sdc.backup else None, "state_dir": str(self.out)}
+        cfg_path = self._write_json("sdn_config.json", app_cfg)
+        self._popen("controller", [self.python, "-m", "sdn_app", "--config", str(cfg_path), "--ofp-port", str(port)])
+        self._wait_listening(port)
+        self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
+                  f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
+        self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
+                           waitConnected=False)
+        self.net.addController("c0", controller=RemoteController, ip="127.0.0.1", port=port)
+        self.net.build()
+        self.net.start()
+        for sw in self.net.switches:
+            sw.cmd(f"ovs-vsctl br-set-external-id {sw.name} sdvisc 1")
+        for host in self.net.hosts:
+            for intf in host.intfList():
+                host.cmd(f"ethtool -K {intf.name} tx off")
+        self.net.staticArp()
+        for host in self.net.hosts:
+            host.cmd(f"arp -s {CONTROLLER_VIP} {CONTROLLER_VMAC}")
+        self._wait_switches()
+
+    def _wait_listening(self, port: int) -> None:
+        deadline = time.time() + SWITCH_CONNECT_TIMEOUT_S
+        while time.time() < deadline:
+            if self.procs["controller"].poll() is not None:
+                raise RunError(f"SDN app exited with {self.procs['controller'].returncode}; see {self.out}/controller.log")
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    return
+            time.sleep(0.1)
+        raise RunError(f"SDN app did not listen on port {port} within {SWITCH_CONNECT_TIMEOUT_S:.0f} s")
+
+    def _wait_switches(self) -> None:
+        want = {s["dpid"] for s in self.desc["switches"].values() if s["openflow"]}
+        deadline = time.time() + SWITCH_CONNECT_TIMEOUT_S
+        while time.time() < deadline:
+            if self.procs["controller"].poll() is not None:
+                raise RunError(f"SDN app exited with {self.procs['controller'].returncode}; see {self.out}/controller.log")
+            state = self.sdn_state()
+            if state and want <= set(state["tables"].get("connected", [])):
+                return
+            time.sleep(0.1)
+        raise RunError(f"switches did not connect to the SDN app within {SWITCH_CONNECT_TIMEOUT_S:.0f} s")
+
+    def sdn_state(self) -> dict | None:
+        try:
+            return json.loads((self.out / "sdn_state.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            return None
+
+    def plant_status(self) -> dict | None:
+        try:
+            return json.loads((self.out / "plant_status.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            return None
+
+    def start_services(self) -> None:
+        sc = self.scenario
+        hosts = self.desc["hosts"]
+        base = {"controller_vip": CONTROLLER_VIP, "header": True, "out_dir": str(self.out), "step_s": sc.step_s}
+        sdcs = [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
+        for host, sdc_id, role in sdcs:
+            cfg = self._write_json(f"{host}_config.json", {**base, "sdc_id": sdc_id, "role": role,
+                                                           "method": sc.sdc.method, "dtype": sc.sdc.dtype})
+            self._popen(f"{host}.sdc", [self.python, "-m", "sdc_unit.service", "--config", str(cfg)],
+                        host=self.net.get(host))
+        cfg = self._write_json("owfcc_config.json", base)
+        self._popen("owfcc.owfcc", [self.python, "-m", "sdvisc.owfcc", "--config", str(cfg)],
+                    host=self.net.get("owfcc"), stdin=subprocess.PIPE)
+        if sc.capture.pcap:
+            for h in sc.capture.hosts:
+                node = self.net.get(h)
+                self._popen(f"{h}.tcpdump", ["tcpdump", "-i", node.defaultIntf().name, "-U", "-w",
+                                             str(self.out / f"sdvisc-capture-{h}.pcap"), "udp"], host=node)
+        turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"],
+                     "pid": self.net.get(n).pid} for n, h in sorted(hosts.items()) if h["role"] == "turbine"]
+        time.sleep(0.3)  # let the services bind their sockets
+        self.t0 = time.time() + START_MARGIN_S
+        plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": self.t0,
+                     "model": sc.plant.model, "record": sc.plant.record or sc.turbines_named(),
+                     "record_every": sc.plant.record_every, "ak_period_s": sc.plant.ak_period_s,
+                     "ak_window_s": sc.plant.ak_window_s, "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s}
+        cfg = self._write_json("plant_config.json", plant_cfg)
+        self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
+
+    # ------------------------------------------------------------------ timeline
+    def _to_stdin(self, name: str, obj: dict) -> None:
+        proc = self.procs.get(name)
+        if proc is None or proc.poll() is not None or proc.stdin is None:
+            return
+        with self._stdin_lock:
+            try:
+                proc.stdin.write((json.dumps(obj) + "\n").encode())
+                proc.stdin.flush()
+            except (BrokenPipeError, OSError):
+                pass
+
+    def dispatch(self, event, t: float) -> None:
+        """Carry out one timeline event now."""
+        kind = event.do
+        record = {"t": round(t, 6), "source": "timeline", "type": kind,
+                  **event.model_dump(exclude={"t", "do"})}
+        self.timeline_events.append(record)
+        if kind in ("visc_on", "visc_off", "set_params"):
+            self._to_stdin("owfcc.owfcc", {"cmd": kind, "wt": event.wt, "params": getattr(event, "params", {})})
+        elif kind in ("link_down", "link_up"):
+            self.net.configLinkStatus(event.a, event.b, "down" if kind == "link_down" else "up")
+        elif kind == "kill":
+            name = "controller" if event.process == "controller" else f"{event.host}.{event.process}"
+            proc = self.procs.get(name)
+            if proc is not None and proc.poll() is None:
+                proc.kill()
+        elif kind == "set":
+            self._to_stdin("plant", {"type": "set", "param": event.param, "value": event.value})
+        elif kind == "load_step":
+            self._to_stdin("plant", {"type": "load_step", "mw": event.mw})
+        elif kind == "scr":
+            self._to_stdin("plant", {"type": "scr", "value": event.value})
+        elif kind == "fault":
+            self._to_stdin("plant", {"type": "fault", "on": True})
+            timer = threading.Timer(max(0.0, self.t0 + t + event.duration_s - time.time()),
+                                    self._to_stdin, args=("plant", {"type": "fault", "on": False}))
+            timer.daemon = True
+            timer.start()
+
+    def play(self) -> None:
+        """Play the timeline and show progress until the plant has run the scenario's duration."""
+        pending = sorted(self.scenario.timeline, key=lambda e: e.t)
+        tty = sys.stdout.isatty() and not self.quiet
+        last_line = 0.0
+        plant = self.procs["plant"]
+        while plant.poll() is None:
+            now = time.time()
+            while pending and now >= self.t0 + pending[0].t:
+                event = pending.pop(0)
+                self.dispatch(event, now - self.t0)
+            if now - last_line >= (0.2 if tty else 1.0):
+                last_line = now
+                self._progress(tty)
+            wait = min(0.02, max(0.0, (self.t0 + pending[0].t - time.time()) if pending else 0.02))
+            time.sleep(wait)
+        if plant.returncode != 0:
+            raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
+        self._progress(tty, final=True)
+        self.finished.set()
+
+    def _progress(self, tty: bool, final: bool = False) -> None:
+        if self.quiet:
+            return
+        st = self.plant_status() or {}
+        total = self.scenario.duration_s
+        t = min(st.get("t_sim", 0.0), total)
+        width = 30
+        filled = int(width * t / total) if total else width
+        line = (f"[{'#' * filled}{'.' * (width - filled)}] t={t:6.2f}/{total:.2f} s  late={st.get('late_steps', 0)}"
+                f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}"
+                f"  visc={','.join(st.get('streaming', [])) or '-'}")
+        if tty:
+            print("\r" + line.ljust(110), end="\n" if final else "", flush=True)
+        else:
+            print(line, flush=True)
+
+    # ------------------------------------------------------------------ teardown
+    def stop_services(self) -> None:
+        """Stop the services so they write their statistics (SIGTERM/EOF, then SIGKILL)."""
+        order = ["owfcc.owfcc", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \
+                [n for n in self.procs if n.endswith(".tcpdump")] + ["controller"]
+        for name in order:
+            proc = self.procs.get(name)
+            if proc is None or proc.poll() is not None:
+                continue
+            if proc.stdin:
+                try:
+                    proc.stdin.close()
+                except OSError:
+                    pass
+            proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
+        deadline = time.time() + 5
+        for proc in self.procs.values():
+            try:
+                proc.wait(timeout=max(0.1, deadline - time.time()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+
+    def teardown(self) -> None:
+        try:
+            self.stop_services()
+        finally:
+            if self.net is not None:
+                try:
+                    self.net.stop()
+                except Exception as exc:  # noqa: BLE001 - teardown must go on
+                    print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
+            cleanup.clean()
+
+
+def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, quiet: bool = False,
+                 source: str | None = None) -> dict:
+    """Run ``scenario``; returns the summary (also written to ``out_dir/summary.json``)."""
+    if os.geteuid() != 0:
+        raise RunError("sdvisc run needs root (Mininet creates namespaces, veths and bridges)")
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in out.glob("*"):
+        if stale.is_file():
+            stale.unlink()
+    left = cleanup.leftovers()
+    if any(left.values()):
+        print(f"sdvisc: removing leftovers of an earlier run: {left}", file=sys.stderr)
+        cleanup.clean()
+    previous = {s: signal.signal(s, _raise_interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
+    run = Run(scenario, out, quiet=quiet)
+    completed = False
+    try:
+        run.build()
+        run.start_services()
+        if cli:
+            from scenarios.cli_ext import TestbedCLI
+
+            player = threading.Thread(target=run.play, daemon=True)
+            player.start()
+            TestbedCLI(run.net, run=run)
+            player.join(timeout=0.1)
+            completed = run.finished.is_set()
+        else:
+            run.play()
+            completed = True
+    finally:
+        try:
+            run.teardown()
+        finally:
+            for s, handler in previous.items():
+                signal.signal(s, handler)
+            summary = build_summary(run, completed=completed, source=source)
+            (out / "summary.json").write_text(json.dumps(summary, indent=1))
+    return summary

@@ -1,0 +1,159 @@
+"""The scenario file schema (pydantic): topology, timing, plant/SDC/SDN settings and a timeline.
+
+Unknown keys are rejected everywhere. Timeline entries are discriminated by ``do``::
+
+    timeline:
+      - {t: 1.0, do: visc_on, wt: wt1_1, params: {h: 3.0, m_q: 0.02}}
+      - {t: 2.0, do: link_down, a: s1, b: s3}
+      - {t: 2.5, do: kill, host: sdc1, process: sdc}
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+TURBINE_PATTERN = r"^wt\d+_\d+$"
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+
+
+class TopologySpec(Strict):
+    name: Literal["paper", "farm"] = Field("paper", description="topology in topologies.topos")
+    clusters: int = Field(5, ge=1, le=50)
+    turbines: int = Field(2, ge=1, le=100, description="turbines per cluster")
+    layout: Literal["compact", "tower"] | None = Field(None, description="farm only; default compact")
+
+    @model_validator(mode="after")
+    def _layout_only_for_farm(self):
+        if self.layout is not None and self.name != "farm":
+            raise ValueError("layout applies to the farm topology only")
+        return self
+
+    def params(self) -> dict:
+        p = {"clusters": self.clusters, "turbines": self.turbines}
+        if self.name == "farm":
+            p["layout"] = self.layout or "compact"
+        return p
+
+
+class PlantSpec(Strict):
+    model: Literal["minimal", "full"] = Field("minimal", description="minimal: infinite bus; full: the 500 MW farm")
+    record: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] | None = Field(
+        None, description="turbines in timeseries.csv (default: those named in the timeline)")
+    record_every: int = Field(15, ge=1, description="record one sample every N steps")
+    ak_period_s: float = Field(0.01, gt=0, le=1.0, description="AK report period")
+    ak_window_s: float = Field(0.01, gt=0, le=1.0, description="AK = 1 if a CTRL arrived within this window")
+    remote_loss_fallback_s: float = Field(0.1, gt=0, description="remote mode falls back after this loss time")
+
+
+class SdcSpec(Strict):
+    method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
+    dtype: Literal["float64", "float32"] = "float64"
+    backup: bool = Field(True, description="start the backup SDC on sdc2")
+
+
+class SdnSpec(Strict):
+    dr_hold_s: float = Field(0.040, gt=0, le=1.0, description="hold before DR_i is confirmed")
+    visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
+    failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
+
+
+class CaptureSpec(Strict):
+    pcap: bool = Field(False, description="capture on the hosts below into DIR/capture_<host>.pcap")
+    hosts: list[str] = Field(default_factory=lambda: ["sdc1"])
+
+
+class _Event(Strict):
+    t: float = Field(ge=0, description="seconds from the scenario start")
+
+
+class ViscOn(_Event):
+    do: Literal["visc_on"]
+    wt: str = Field(pattern=TURBINE_PATTERN)
+    params: dict[Literal["h", "d", "m_q", "v_ref", "q_ref", "supp"], float] = Field(default_factory=dict)
+
+
+class ViscOff(_Event):
+    do: Literal["visc_off"]
+    wt: str = Field(pattern=TURBINE_PATTERN)
+
+
+class SetViscParams(_Event):
+    do: Literal["set_params"]
+    wt: str = Field(pattern=TURBINE_PATTERN)
+    params: dict[Literal["h", "d", "m_q", "v_ref", "q_ref", "supp"], float]
+
+
+class LinkDown(_Event):
+    do: Literal["link_down"]
+    a: str
+    b: str
+
+
+class LinkUp(_Event):
+    do: Literal["link_up"]
+    a: str
+    b: str
+
+
+class Kill(_Event):
+    do: Literal["kill"]
+    host: str
+    process: Literal["sdc", "controller", "owfcc"]
+
+
+class SetParam(_Event):
+    do: Literal["set"]
+    param: str = Field(description="a plant parameter with a set_<param> method, e.g. avr_ref, grid_voltage")
+    value: float
+
+
+class LoadStep(_Event):
+    do: Literal["load_step"]
+    mw: float
+
+
+class Fault(_Event):
+    do: Literal["fault"]
+    duration_s: float = Field(gt=0, description="cleared after this time")
+
+
+class Scr(_Event):
+    do: Literal["scr"]
+    value: float = Field(gt=0)
+
+
+Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | Kill | SetParam | LoadStep | Fault | Scr,
+                  Field(discriminator="do")]
+
+
+class Scenario(Strict):
+    name: str
+    description: str = ""
+    topology: TopologySpec = Field(default_factory=TopologySpec)
+    duration_s: float = Field(gt=0, le=3600)
+    step_s: float = Field(0.67e-3, gt=0, le=0.1, description="plant/SDC sampling period Ts")
+    plant: PlantSpec = Field(default_factory=PlantSpec)
+    sdc: SdcSpec = Field(default_factory=SdcSpec)
+    sdn: SdnSpec = Field(default_factory=SdnSpec)
+    capture: CaptureSpec = Field(default_factory=CaptureSpec)
+    timeline: list[Event] = Field(default_factory=list)
+
+    @model_validator(mode="after")
+    def _timeline_within_duration(self):
+        for i, event in enumerate(self.timeline):
+            if event.t > self.duration_s:
+                raise ValueError(f"timeline[{i}] at t={event.t} s is after duration_s={self.duration_s}")
+        return self
+
+    def turbines_named(self) -> list[str]:
+        names = []
+        for event in self.timeline:
+            wt = getattr(event, "wt", None)
+            if wt and wt not in names:
+                names.append(wt)
+        return names

@@ -1,0 +1,120 @@
+"""A fixed-capacity bank of per-turbine controllers addressed by slot, as the service needs it.
+
+Wraps :class:`sdc_unit.discrete.DiscreteVisc` (the Tustin/trapezoid/Euler SDViSC) so that the
+service can start, stop, re-parameterise and step any subset of slots. A started slot is
+initialised from its first measurement (bumpless start from the turbine's operating point).
+
+``method="hold"`` is a network-only law for studies where the grid does not matter: it answers
+every measurement with the converter voltage of the operating point it saw first
+(``v + (R_f + jX_f)·i``), so packets flow with realistic sizes and timing at negligible CPU cost.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+VISC_METHODS = ("tustin", "trapezoid_cumulative", "euler")
+METHODS = VISC_METHODS + ("hold",)
+OUT_KEYS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "limited")
+PARAM_NAMES = {1: "h", 2: "d", 4: "m_q", 8: "v_ref", 16: "q_ref", 32: "supp"}
+
+
+def params_from_mask(params: dict) -> dict:
+    """The parameters a REQUEST marks as meaningful (``mask`` bits), by name."""
+    mask = int(params.get("mask", 0))
+    return {name: params[name] for bit, name in PARAM_NAMES.items() if mask & bit}
+
+
+class ControllerBank:
+    """``capacity`` controller slots stepped in one vectorised call."""
+
+    MEAS_KEYS = ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
+
+    def __init__(self, capacity: int, step_s: float, method: str = "tustin", dtype: str = "float64",
+                 r_f: float = 0.003, x_f: float = 0.08) -> None:
+        if method not in METHODS:
+            raise ValueError(f"SDC method must be one of {METHODS}, got {method!r}")
+        self.capacity = capacity
+        self.method = method
+        self.started = np.zeros(capacity, dtype=bool)
+        self.initialised = np.zeros(capacity, dtype=bool)
+        self.pending_params: dict[int, dict] = {}
+        self.z_f = complex(r_f, x_f)
+        self.hold_v = np.zeros(capacity, dtype=complex)
+        self.visc = None
+        if method in VISC_METHODS:
+            from sdc_unit.discrete import DiscreteVisc
+            from sdc_unit.params import ViscParams
+
+            self.visc = DiscreteVisc(capacity, ViscParams(), ts=step_s, method=method,
+                                     dtype=np.float32 if dtype == "float32" else np.float64)
+            self.visc.active[:] = False
+
+    def start(self, slot: int, params: dict) -> None:
+        self.started[slot] = True
+        self.initialised[slot] = False
+        self.pending_params[slot] = params_from_mask(params)
+
+    def stop(self, slot: int) -> None:
+        self.started[slot] = False
+        self.initialised[slot] = False
+        if self.visc is not None:
+            self.visc.active[slot] = False
+
+    def set_params(self, slot: int, params: dict) -> None:
+        changes = params_from_mask(params)
+        if self.visc is not None and changes and self.initialised[slot]:
+            self.visc.set_params(slot, **changes)
+        elif changes:
+            self.pending_params.setdefault(slot, {}).update(changes)
+
+    def take_over(self, slot: int) -> None:
+        """Become the active controller of ``slot`` (warm state, if tracked, is kept)."""
+        self.started[slot] = True
+
+    def _initialise(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> None:
+        for j, slot in enumerate(slots):
+            if self.initialised[slot]:
+                continue
+            one = {k: meas[k][j : j + 1] for k in self.MEAS_KEYS}
+            v = one["v_d"][0] + 1j * one["v_q"][0]
+            i = one["i_d"][0] + 1j * one["i_q"][0]
+            self.hold_v[slot] = v + self.z_f * i
+            if self.visc is not None:
+                self.visc.active[slot] = True
+                self.visc.initialise(slot, {k: float(a[0]) for k, a in one.items()})
+                if self.pending_params.get(slot):
+                    self.visc.set_params(slot, **self.pending_params.pop(slot))
+            self.initialised[slot] = True
+
+    def step(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Advance the controllers of ``slots`` by one sample; returns (outputs, valid) per given slot."""
+        slots = np.asarray(slots)
+        finite = np.all([np.isfinite(meas[k]) for k in self.MEAS_KEYS], axis=0)
+        usable = finite & self.started[slots]
+        self._initialise(slots[usable], {k: v[usable] for k, v in meas.items()})
+        if self.visc is None:
+            v = self.hold_v[slots]
+            out = {k: np.zeros(len(slots)) for k in OUT_KEYS}
+            out["v_ref_d"], out["v_ref_q"] = v.real, v.imag
+            out["e_mag"] = np.abs(v)
+            out["omega"] = np.ones(len(slots))
+            out["limited"] = np.zeros(len(slots), dtype=bool)
+            return out, usable
+        return self._step_visc(slots, meas, usable)
+
+    def _step_visc(self, slots, meas, usable):
+        full = {k: np.zeros(self.capacity) for k in self.MEAS_KEYS}
+        for k in self.MEAS_KEYS:
+            full[k][slots[usable]] = meas[k][usable]
+        saved = self.visc.active.copy()
+        stepping = np.zeros(self.capacity, dtype=bool)
+        stepping[slots[usable]] = True
+        self.visc.active[:] = saved & stepping
+        try:
+            result = self.visc.step(full)
+        finally:
+            self.visc.active[:] = saved
+        valid = usable & np.asarray(result.valid)[slots]
+        out = {k: np.asarray(getattr(result, k))[slots] for k in OUT_KEYS}
+        return out, valid

@@ -1,0 +1,336 @@
+"""DiscreteVisc: the SDC unit's discretised ViSC law, N instances vectorised.
+
+The equations are those of :mod:`sdc_unit.law`; each dynamic block is replaced by its discrete
+counterpart from :mod:`sdc_unit.blocks`. Per sample k (time k*Ts; there is no wall clock):
+
+1. v_f(k): low-pass of v (held while the limiter was active at k-1).
+2. swing: T(k) = p_ref - P_e(k), P_e = p measured, or Re(v(k) conj(i_lim(k-1))) if the limiter
+   was active at k-1 (one-sample lag breaks the algebraic loop delta(k) -> limiter -> T(k));
+   delta(k) from the eq. (15) recursion, omega(k) = 1 + [delta(k) - delta(k-1)]/(omega0 Ts)
+   (backward difference).
+3. virtual friction chain with input omega_s - omega(k) -> V_F(k).
+4. AVR PI on e(k) = (V* - |v_f(k)|) + m_q (Q* - q(k)); E = u + E* + supp V_F.
+5. quasi-stationary model, circular limiter -> i_ref(k).
+6. current PI: v_ref = v + j l_f i + PI(i_ref - i).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import law
+from .blocks import METHODS, make_first_order, make_pi, make_swing
+from .law import MEAS_FIELDS, Outputs
+from .params import RUNTIME_PARAMS, ViscParams
+
+OUT_FIELDS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "v_f", "p_e")
+
+
+class DiscreteVisc:
+    """N discretised ViSC instances.
+
+    Parameters: n instances, ``params`` (:class:`ViscParams`, scalars), ``ts`` sampling period [s],
+    ``method`` in ("tustin", "trapezoid_cumulative", "euler"), ``dtype`` float64 or float32 (all
+    state and arithmetic). In "trapezoid_cumulative" the PIs and the swing use the explicit running
+    sums of eq. (13); the first-order filters use Tustin (the trapezoidal rule of a first-order lag
+    is its Tustin recursion). Instances start inactive; call :meth:`initialise` (or
+    :meth:`restore`) first.
+    """
+
+    def __init__(self, n: int, params: ViscParams | None = None, ts: float = 0.67e-3, method: str = "tustin", dtype=np.float64):
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}")
+        self.n = int(n)
+        self.p = params or ViscParams()
+        self.ts = float(ts)
+        self.method = method
+        self.dtype = np.dtype(dtype)
+        if self.dtype not in (np.dtype(np.float64), np.dtype(np.float32)):
+            raise ValueError("dtype must be float64 or float32")
+        self.k = 0  # step counter; time = k * ts
+        p, n, ts, dt = self.p, self.n, self.ts, self.dtype
+        self.w0 = p.omega0
+        # run-time parameters, one per instance
+        self.rp = {name: np.full(n, float(getattr(p, name))) for name in RUNTIME_PARAMS}
+        fo = lambda num, den: make_first_order(method, num, den, ts, n, dt)  # noqa: E731
+        self.lpf_d = fo((0.0, 1.0), (p.t_vf, 1.0))
+        self.lpf_q = fo((0.0, 1.0), (p.t_vf, 1.0))
+        self.swing = make_swing(method, p.h, p.d, ts, n, dt, scale=self.w0, wrap=(method == "tustin"))
+        self.avr = make_pi(method, p.k_pv, p.k_iv, ts, n, dt)
+        self.pi_d = make_pi(method, p.k_pc, p.k_ic, ts, n, dt)
+        self.pi_q = make_pi(method, p.k_pc, p.k_ic, ts, n, dt)
+        self.f_lpf = fo((0.0, 1.0), (p.t_lpf, 1.0))
+        self.f_w1 = fo((p.k_f1, 0.0), (p.t_v1, 1.0))
+        self.f_w2 = fo((p.k_f2, 0.0), (p.t_v2, 1.0))
+        self.f_ll1 = fo((p.t_1, 1.0), (p.t_2, 1.0))
+        self.f_ll2 = fo((p.t_1, 1.0), (p.t_2, 1.0))
+        self.blocks = {
+            "lpf_d": self.lpf_d,
+            "lpf_q": self.lpf_q,
+            "swing": self.swing,
+            "avr": self.avr,
+            "pi_d": self.pi_d,
+            "pi_q": self.pi_q,
+            "f_lpf": self.f_lpf,
+            "f_w1": self.f_w1,
+            "f_w2": self.f_w2,
+            "f_ll1": self.f_ll1,
+            "f_ll2": self.f_ll2,
+        }
+        # own per-instance memory
+        z = lambda: np.zeros(n, dtype=dt)  # noqa: E731
+        self.mem = {
+            "limited": z(),  # limiter active at the last step (0/1)
+            "ild": z(),  # last limited current reference
+            "ilq": z(),
+            "vmag": z(),  # last |v_f| and q used by the AVR (for bumpless re-referencing)
+            "q": z(),
+            "vfr": z(),  # last raw virtual friction output
+        }
+        self.last = {f: np.zeros(n) for f in OUT_FIELDS}
+        self.last_limited = np.zeros(n, dtype=bool)
+        self.active = np.zeros(n, dtype=bool)
+
+    # ------------------------------------------------------------------ helpers
+    def _mask(self, index) -> np.ndarray:
+        if index is None:
+            return np.ones(self.n, dtype=bool)
+        idx = np.asarray(index)
+        if idx.dtype == bool:
+            return np.broadcast_to(idx, (self.n,)).copy()
+        m = np.zeros(self.n, dtype=bool)
+        m[idx] = True
+        return m
+
+    def _meas(self, meas):
+        """Sanitised measurements in dtype and the per-instance finiteness mask."""
+        raw = {f: np.broadcast_to(np.asarray(getattr(meas, f), dtype=float), (self.n,)) for f in MEAS_FIELDS}
+        finite = np.ones(self.n, dtype=bool)
+        for v in raw.values():
+            finite &= np.isfinite(v)
+        clean = {f: np.where(finite, v, 0.0).astype(self.dtype) for f, v in raw.items()}
+        return clean, finite
+
+    def _c(self, x):
+        return np.broadcast_to(np.asarray(x, dtype=float), (self.n,)).astype(self.dtype)
+
+    # ------------------------------------------------------------------ core
+    def _advance(self, m: dict, mask: np.ndarray) -> dict:
+        p, dt, c = self.p, self.dtype, self._c
+        one = dt.type(1.0)
+        lim_prev = self.mem["limited"] > 0
+        hold = lim_prev if p.freeze_vf_when_limited else None
+        vfd = self.lpf_d.step(m["v_d"], mask, hold)
+        vfq = self.lpf_q.step(m["v_q"], mask, hold)
+        om_s = np.where(p.omega_s_measured, m["omega_meas"], one).astype(dt)
+        # swing
+        p_lim = m["v_d"] * self.mem["ild"] + m["v_q"] * self.mem["ilq"]
+        p_e = np.where(lim_prev, p_lim, m["p"])
+        t_err = c(p.p_ref) - p_e
+        delta, dev = self.swing.step(t_err, om_s - one, mask)
+        omega = one + dev
+        # virtual friction, input omega_s - omega
+        a = self.f_lpf.step(om_s - omega, mask)
+        y = self.f_w1.step(a, mask) + self.f_w2.step(a, mask)
+        vfr = self.f_ll2.step(self.f_ll1.step(y, mask), mask)
+        supp = self.rp["supp"] > 0.5
+        vfr_app = np.where(supp, vfr, dt.type(0.0))
+        # AVR
+        vmag = np.hypot(vfd, vfq)
+        e = (c(self.rp["v_ref"]) - vmag) + c(self.rp["m_q"]) * (c(self.rp["q_ref"]) - m["q"])
+        u = self.avr.step(e, mask, lim_prev if p.avr_antiwindup else None)
+        e_mag = u + c(p.e_ref) + vfr_app
+        # quasi-stationary model and limiter
+        isd, isq = law.qsem_current(e_mag, delta, vfd, vfq, omega, _DtypeParams(p, dt))
+        ild, ilq, limited = law.circular_limit(isd, isq, dt.type(p.i_max))
+        # inner current loop
+        lf = dt.type(p.l_f)
+        v_ref_d = m["v_d"] - lf * m["i_q"] + self.pi_d.step(ild - m["i_d"], mask)
+        v_ref_q = m["v_q"] + lf * m["i_d"] + self.pi_q.step(ilq - m["i_q"], mask)
+        new_mem = dict(limited=limited.astype(dt), ild=ild, ilq=ilq, vmag=vmag, q=m["q"], vfr=vfr)
+        for k, v in new_mem.items():
+            self.mem[k] = np.where(mask, v, self.mem[k]).astype(dt)
+        out = dict(
+            v_ref_d=v_ref_d,
+            v_ref_q=v_ref_q,
+            i_ref_d=ild,
+            i_ref_q=ilq,
+            delta=delta,
+            omega=omega,
+            e_mag=e_mag,
+            v_f=vfr_app,
+            p_e=p_e,
+        )
+        ok = mask.copy()
+        for v in out.values():
+            ok &= np.isfinite(v)
+        for f in OUT_FIELDS:
+            self.last[f] = np.where(ok, out[f], self.last[f]).astype(float)
+        self.last_limited = np.where(ok, limited, self.last_limited)
+        return ok
+
+    def step(self, meas) -> Outputs:
+        """One sample for all active instances with finite measurements.
+
+        Returns :class:`Outputs`; ``valid`` is False for inactive instances and for instances with
+        non-finite measurements (those are not stepped; their fields hold the last valid output,
+        never NaN).
+        """
+        m, finite = self._meas(meas)
+        mask = self.active & finite
+        ok = self._advance(m, mask)
+        self.k += 1
+        return self._outputs(ok)
+
+    def _outputs(self, valid) -> Outputs:
+        L = self.last
+        return Outputs(
+            v_ref_d=L["v_ref_d"].copy(),
+            v_ref_q=L["v_ref_q"].copy(),
+            i_ref_d=L["i_ref_d"].copy(),
+            i_ref_q=L["i_ref_q"].copy(),
+            delta=L["delta"].copy(),
+            omega=L["omega"].copy(),
+            e_mag=L["e_mag"].copy(),
+            limited=self.last_limited.copy(),
+            valid=np.asarray(valid, dtype=bool).copy(),
+            v_f=L["v_f"].copy(),
+            p_e=L["p_e"].copy(),
+        )
+
+    def track(self, meas, index=None) -> None:
+        """Warm standby: advance the states of instances ``index`` on ``meas`` without producing output."""
+        m, finite = self._meas(meas)
+        self._advance(m, self._mask(index) & finite)
+
+    # ------------------------------------------------------------------ initialisation
+    def initialise(self, index, meas) -> None:
+        """Bumpless start of instances ``index`` from the turbine's present operating point.
+
+        delta and |E| from v and i through the virtual impedance (E e^{j delta} = v + (r_v + j omega l_v) i),
+        v_f = v, friction at rest, the AVR so that E is reproduced, the current PIs so that the
+        first v_ref equals the present converter voltage v + (r_f + j l_f) i. Activates them.
+        """
+        m, finite = self._meas(meas)
+        mask = self._mask(index) & finite
+        p, c = self.p, self._c
+        mf = {k: v.astype(float) for k, v in m.items()}
+
+        class _M:
+            pass
+
+        mm = _M()
+        for k, v in mf.items():
+            setattr(mm, k, v)
+        delta, e_mag, om_s, dw = law.operating_point(mm, p)
+        self.lpf_d.set_steady(mask, m["v_d"])
+        self.lpf_q.set_steady(mask, m["v_q"])
+        self.swing.set_operating_point(mask, delta, dw, p.p_ref - mf["p"], om_s - 1.0)
+        for b in (self.f_lpf, self.f_w1, self.f_w2):
+            b.set_steady(mask, -dw)
+        for b in (self.f_ll1, self.f_ll2):
+            b.set_steady(mask, np.zeros(self.n))
+        vmag = np.hypot(mf["v_d"], mf["v_q"])
+        e = (self.rp["v_ref"] - vmag) + self.rp["m_q"] * (self.rp["q_ref"] - mf["q"])
+        self.avr.set_operating_point(mask, e_mag - p.e_ref, e)
+        self.pi_d.set_operating_point(mask, p.r_f * mf["i_d"], np.zeros(self.n))
+        self.pi_q.set_operating_point(mask, p.r_f * mf["i_q"], np.zeros(self.n))
+        new_mem = dict(limited=0.0, ild=mf["i_d"], ilq=mf["i_q"], vmag=vmag, q=mf["q"], vfr=0.0)
+        for k, v in new_mem.items():
+            self.mem[k] = np.where(mask, c(v), self.mem[k]).astype(self.dtype)
+        init_out = dict(
+            v_ref_d=mf["v_d"] + p.r_f * mf["i_d"] - p.l_f * mf["i_q"],
+            v_ref_q=mf["v_q"] + p.r_f * mf["i_q"] + p.l_f * mf["i_d"],
+            i_ref_d=mf["i_d"],
+            i_ref_q=mf["i_q"],
+            delta=delta,
+            omega=om_s + dw,
+            e_mag=e_mag,
+            v_f=np.zeros(self.n),
+            p_e=mf["p"],
+        )
+        for f in OUT_FIELDS:
+            self.last[f] = np.where(mask, init_out[f], self.last[f])
+        self.last_limited = np.where(mask, False, self.last_limited)
+        self.active |= mask
+
+    def deactivate(self, index) -> None:
+        self.active &= ~self._mask(index)
+
+    # ------------------------------------------------------------------ run-time parameters
+    def set_params(self, index, bumpless: bool = True, **changes) -> None:
+        """Change run-time parameters (h, d, m_q, v_ref, q_ref, supp) of instances ``index``.
+
+        With ``bumpless=False`` the change acts like a step of the continuous law's parameter
+        (e.g. a V* step gives the AVR's proportional kick K_pv dV*). With ``bumpless=True``
+        (default) the states are re-initialised so the output is continuous:
+
+        h, d: the swing recursion gets the new coefficients (Tustin: the delta history carries the
+        state; cumulative: the running sums are restarted at the last sample). m_q, v_ref, q_ref:
+        the AVR's last error is re-expressed with the new references so the proportional part does
+        not jump. supp: the AVR integrator absorbs the change of the applied V_F.
+        """
+        bad = set(changes) - set(RUNTIME_PARAMS)
+        if bad:
+            raise KeyError(f"not run-time parameters: {sorted(bad)}")
+        mask = self._mask(index)
+        old = {k: v.copy() for k, v in self.rp.items()}
+        new = {k: v.copy() for k, v in self.rp.items()}
+        for k, v in changes.items():
+            new[k] = np.where(mask, float(v), new[k])
+        if "h" in changes or "d" in changes:
+            self.swing.set_hd(mask, new["h"], new["d"])
+        if not bumpless:
+            self.rp = new
+            return
+        if {"m_q", "v_ref", "q_ref"} & set(changes):
+            vm, q = self.mem["vmag"].astype(float), self.mem["q"].astype(float)
+            e_old = (old["v_ref"] - vm) + old["m_q"] * (old["q_ref"] - q)
+            e_new = (new["v_ref"] - vm) + new["m_q"] * (new["q_ref"] - q)
+            self.avr.change_prev_error(mask, e_old, e_new)
+        if "supp" in changes:
+            dsupp = (old["supp"] > 0.5).astype(float) - (new["supp"] > 0.5).astype(float)
+            self.avr.shift(mask, dsupp * self.mem["vfr"].astype(float))
+        self.rp = new
+
+    # ------------------------------------------------------------------ warm standby
+    def snapshot(self, index: int) -> dict[str, float]:
+        """All state of instance ``index`` (block states, memory, run-time parameters) as floats."""
+        i = int(index)
+        d: dict[str, float] = {}
+        for bn, b in self.blocks.items():
+            for k, v in b.snapshot(i).items():
+                d[f"{bn}.{k}"] = v
+        for k, v in self.mem.items():
+            d[f"mem.{k}"] = float(v[i])
+        for k, v in self.rp.items():
+            d[f"param.{k}"] = float(v[i])
+        for k, v in self.last.items():
+            d[f"last.{k}"] = float(v[i])
+        d["last.limited"] = float(self.last_limited[i])
+        d["active"] = float(self.active[i])
+        return d
+
+    def restore(self, index: int, state: dict[str, float]) -> None:
+        """Load a :meth:`snapshot` into instance ``index`` (e.g. a backup SDC taking over)."""
+        i = int(index)
+        mask = self._mask(i)
+        for k in self.rp:
+            self.rp[k][i] = state[f"param.{k}"]
+        self.swing.set_hd(mask, self.rp["h"], self.rp["d"], rebase=False)
+        for bn, b in self.blocks.items():
+            b.restore(i, {k.split(".", 1)[1]: v for k, v in state.items() if k.startswith(bn + ".")})
+        for k in self.mem:
+            self.mem[k][i] = state[f"mem.{k}"]
+        for k in self.last:
+            self.last[k][i] = state[f"last.{k}"]
+        self.last_limited[i] = bool(state["last.limited"])
+        self.active[i] = bool(state["active"])
+
+
+class _DtypeParams:
+    """View of ViscParams with r_v and l_v cast to a dtype (keeps float32 arithmetic float32)."""
+
+    def __init__(self, p: ViscParams, dt):
+        self.r_v = dt.type(p.r_v)
+        self.l_v = dt.type(p.l_v)

@@ -1,0 +1,119 @@
+"""Parameters of the virtual synchronous condenser (ViSC) grid-side controller.
+
+All quantities are per unit on the turbine rating (10 MW, 0.69 kV) unless a unit is given; time in
+seconds. Sources: ``[paper]`` = the SDViSC paper (/work/shared/reference/sdvisc-paper.tex),
+``[D'Arco 2015]`` = D'Arco, Suul, Fosso, EPSR 122 (2015), ``[Mo 2017]`` = Mo, D'Arco, Suul, IEEE TIE 2017,
+``[assumed]`` = engineering judgement documented in docs/sdc.md.
+
+Every field may be a Python float or a numpy array of shape (N,) (one value per turbine); the
+control law in :mod:`sdc_unit.law` broadcasts.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields, replace
+
+
+@dataclass(frozen=True)
+class ViscParams:
+    """ViSC controller parameters (frozen; use :meth:`with_changes`).
+
+    Inertia emulation, eq. (1):
+        h: emulated inertia constant H [s], default 3.0 [paper: 3 s and 5 s cases, 4 s in the 100 MW case].
+        d: damping factor D [p.u. torque / p.u. speed], default 90.0 [assumed: swing-mode damping
+            ratio ~0.7 for x_v + x_grid ~ 0.42 p.u. (SCR 7.14), D = 4*H*zeta*omega_n].
+        p_ref: power reference giving T_m [p.u.], default 0.0 [paper: T_m = 0, no mechanical input].
+        omega_s_measured: if True the reference frequency omega_s is the measured grid frequency
+            ``meas.omega_meas``; if False omega_s = 1 p.u. (nominal), default False [paper: omega_s
+            is a reference].
+
+    AVR with reactive droop, eq. (2):
+        v_ref: voltage reference V* [p.u.], default 1.0 [paper].
+        q_ref: reactive power reference Q* [p.u.], default 0.0 [paper].
+        e_ref: internal voltage feed-forward E* [p.u.], default 1.0 [assumed].
+        m_q: reactive droop m_q [p.u./p.u.], default 0.02 [paper, comparison case].
+        k_pv: AVR proportional gain K_pv [p.u./p.u.], default 0.5 [assumed, PARAMETERS.md].
+        k_iv: AVR integral gain K_iv [1/s], default 20.0 [assumed, PARAMETERS.md].
+
+    Quasi-stationary electrical model (virtual impedance R_vir + j*omega*L_vir):
+        r_v: virtual resistance R_vir [p.u.], default 0.0 [D'Arco 2015].
+        l_v: virtual inductance L_vir [p.u.], default 0.2 [D'Arco 2015].
+        t_vf: time constant of the measured-voltage low-pass filter [s], default 1/300 [Mo 2017].
+        freeze_vf_when_limited: freeze that filter while the current limiter saturates, default
+            True [Mo 2017; Dynawo CurrentSaturation].
+
+    Current limiter:
+        i_max: circular current limit [p.u.], default 1.5 [paper].
+        avr_antiwindup: freeze the AVR integrator while the limiter saturates (conditional
+            integration), default True [assumed; without it E winds up to ~6 p.u. during a 0.3 p.u.
+            dip and the ViSC stays current-limited for seconds after clearance].
+
+    Virtual friction, eq. (4) (supplementary control):
+        supp: supplementary control (virtual friction) enabled, default False [assumed; paper uses
+            it in the weak-grid cases].
+        k_f1: gain K_F1 [p.u. V * s / p.u. speed], default 20.0 [assumed, PARAMETERS.md K_F].
+        t_v1: washout time constant T_v1 [s], default 1.0 [assumed].
+        k_f2: gain K_F2 [p.u. V * s / p.u. speed], default 0.2 [assumed].
+        t_v2: washout time constant T_v2 [s], default 0.02 [assumed].
+        t_lpf: input low-pass time constant T_LPF [s], default 0.02 [assumed, PARAMETERS.md].
+        t_1: lead time constant T_1 [s], default 0.15 [assumed, PARAMETERS.md].
+        t_2: lag time constant T_2 [s], default 0.05 [assumed, PARAMETERS.md].
+
+    Inner current loop (decoupled PI + voltage feed-forward), plant (l_f/omega0) di/dt = v_conv - v - (r_f + j l_f) i:
+        k_pc: current PI proportional gain [p.u. V / p.u. A], default 0.13 [assumed: D'Arco's
+            1.27 gives a 5000 rad/s loop, above the 4690 rad/s Nyquist rate at Ts = 0.67 ms and
+            unstable with the one-sample transport delay; 0.13 gives ~510 rad/s].
+        k_ic: current PI integral gain [p.u. V / (p.u. A * s)], default 1.53 [assumed: zero at the
+            filter pole omega0*r_f/l_f = 11.8 rad/s].
+        l_f: filter inductance [p.u.], default 0.08 [D'Arco 2015].
+        r_f: filter resistance [p.u.], default 0.003 [D'Arco 2015].
+        f_base: base (nominal) frequency [Hz], default 50.0 [PARAMETERS.md].
+    """
+
+    h: float = 3.0
+    d: float = 90.0
+    p_ref: float = 0.0
+    omega_s_measured: bool = False
+    v_ref: float = 1.0
+    q_ref: float = 0.0
+    e_ref: float = 1.0
+    m_q: float = 0.02
+    k_pv: float = 0.5
+    k_iv: float = 20.0
+    r_v: float = 0.0
+    l_v: float = 0.2
+    t_vf: float = 1.0 / 300.0
+    freeze_vf_when_limited: bool = True
+    i_max: float = 1.5
+    avr_antiwindup: bool = True
+    supp: bool = False
+    k_f1: float = 20.0
+    t_v1: float = 1.0
+    k_f2: float = 0.2
+    t_v2: float = 0.02
+    t_lpf: float = 0.02
+    t_1: float = 0.15
+    t_2: float = 0.05
+    k_pc: float = 0.13
+    k_ic: float = 1.53
+    l_f: float = 0.08
+    r_f: float = 0.003
+    f_base: float = 50.0
+
+    @property
+    def omega0(self) -> float:
+        """Base angular frequency [rad/s]."""
+        return 2.0 * math.pi * float(self.f_base)
+
+    def with_changes(self, **changes) -> ViscParams:
+        """Return a copy with some fields changed."""
+        return replace(self, **changes)
+
+    @classmethod
+    def field_names(cls) -> tuple[str, ...]:
+        return tuple(f.name for f in fields(cls))
+
+
+#: Parameters that :meth:`sdc_unit.discrete.DiscreteVisc.set_params` may change at run time.
+RUNTIME_PARAMS = ("h", "d", "m_q", "v_ref", "q_ref", "supp")

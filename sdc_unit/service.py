@@ -1,0 +1,252 @@
+"""The SDC unit as a network service: ``python -m sdc_unit.service --config FILE``, run inside an
+SDC Mininet host.
+
+One process serves every turbine the SDN application assigns to it. It listens on
+``wire.PORT_SDC`` for ``REQUEST`` commands (start/stop an instance, set parameters, take over) and
+for ``MEAS`` packets; each received measurement advances that turbine's controller by one step and
+is answered by one ``CTRL`` packet to the sender. Heartbeats go to the SDN application.
+
+Sequence-number policy (per turbine, on ``MEAS.seq``):
+
+* ``seq`` ≤ the last one used → duplicate or out of order: dropped, counted (``meas_stale``);
+  an older sample is never applied after a newer one.
+* ``seq`` > last + 1 → the gap is counted as lost (``meas_lost``); the controller takes one step
+  with the sample that arrived (it runs on received samples; a lost sample is not invented).
+* several samples of one turbine waiting in one receive batch (they queued while the process was
+  busy) → each is used, in order, one step and one ``CTRL`` each; turbines are stepped together.
+* a malformed packet or one with NaN/Inf is dropped and counted (``rx_rejected``); it never
+  reaches a controller and no ``CTRL`` is sent for it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import select
+import signal
+import socket
+import sys
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from sdc_unit.bank import ControllerBank
+from sdvisc import wire
+from sdvisc.netns import raise_priority
+from sdvisc.stats import delay_summary
+
+HEARTBEAT_S = 0.02
+
+
+@dataclass
+class Instance:
+    """Per-turbine service state (the controller state lives in the bank)."""
+
+    name: str
+    wid: int
+    slot: int
+    addr: tuple[str, int] | None = None
+    active: bool = False
+    last_seq: int = -1
+    ctrl_seq: int = 0
+    counts: dict = field(default_factory=lambda: {"meas_rx": 0, "ctrl_tx": 0, "meas_lost": 0, "meas_stale": 0,
+                                                  "meas_inactive": 0, "ctrl_invalid": 0})
+    first_meas_rx_t: float | None = None
+    meas_delays_ms: list = field(default_factory=list)
+
+
+class SdcService:
+    """See the module docstring."""
+
+    def __init__(self, cfg: dict, sock: socket.socket | None = None) -> None:
+        self.cfg = cfg
+        self.sdc_id = int(cfg.get("sdc_id", 1))
+        self.header = bool(cfg.get("header", True))
+        self.controller = (cfg["controller_vip"], wire.PORT_CONTROLLER)
+        self.sock = sock or self._open_socket(cfg.get("bind_ip", "0.0.0.0"))
+        self.instances: dict[int, Instance] = {}
+        self.bank = ControllerBank(capacity=int(cfg.get("capacity", 64)), step_s=float(cfg["step_s"]),
+                                   method=cfg.get("method", "tustin"), dtype=cfg.get("dtype", "float64"))
+        self.rx_stats = wire.DecodeStats()
+        self.hb_seq = 0
+        self.unexpected_rx = 0
+        self.events: list[dict] = []
+        self.running = True
+
+    @staticmethod
+    def _open_socket(bind_ip: str) -> socket.socket:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
+        sock.bind((bind_ip, wire.PORT_SDC))
+        sock.setblocking(False)
+        return sock
+
+    def _instance(self, wid: int) -> Instance:
+        inst = self.instances.get(wid)
+        if inst is None:
+            inst = Instance(wire.turbine_name(wid), wid, slot=len(self.instances))
+            self.instances[wid] = inst
+        return inst
+
+    def _header(self, seq: int, now: float) -> wire.Header | None:
+        if not self.header:
+            return None
+        sec = int(now)
+        return wire.Header(seq, sec, int((now - sec) * 1e9))
+
+    # ------------------------------------------------------------------ commands
+    def _on_request(self, msg: wire.Message, now: float) -> None:
+        cmd, wid = msg["cmd"], msg["wt"]
+        inst = self._instance(wid)
+        status = wire.Status.OK
+        params = {k: msg[k] for k in ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")}
+        if cmd == wire.Command.START_INSTANCE:
+            inst.active = True
+            self.bank.start(inst.slot, params)
+        elif cmd == wire.Command.STOP_INSTANCE:
+            inst.active = False
+            self.bank.stop(inst.slot)
+        elif cmd == wire.Command.SET_PARAMS:
+            if inst.active:
+                self.bank.set_params(inst.slot, params)
+            else:
+                status = wire.Status.REFUSED
+        elif cmd == wire.Command.TAKEOVER:
+            inst.active = True
+            self.bank.take_over(inst.slot)
+        else:
+            status = wire.Status.BAD_REQUEST
+        self.events.append({"t_wall": now, "type": "sdc_command", "cmd": wire.Command(cmd).name,
+                            "wt": inst.name, "status": status.name})
+        reply = {"req_id": msg["req_id"], "status": int(status), "wt": wid, "cmd": cmd, "detail": 0}
+        self.sock.sendto(wire.encode(wire.MsgType.REPLY, reply, header=self._header(msg["req_id"], now)),
+                         self.controller)
+
+    # ------------------------------------------------------------------ measurements
+    def _drain(self, now: float) -> dict[int, list[tuple[wire.Message, tuple]]]:
+        """Read every waiting datagram; returns the usable measurements per turbine, in order."""
+        batch: dict[int, list[tuple[wire.Message, tuple]]] = {}
+        while True:
+            try:
+                data, addr = self.sock.recvfrom(2048)
+            except BlockingIOError:
+                return batch
+            msg = self.rx_stats.decode(data, header=self.header)
+            if msg is None:
+                continue
+            if msg.type == wire.MsgType.REQUEST:
+                self._on_request(msg, now)
+                continue
+            if msg.type != wire.MsgType.MEAS:
+                self.unexpected_rx += 1
+                continue
+            inst = self._instance(msg["wt"])
+            if msg["seq"] <= inst.last_seq:
+                inst.counts["meas_stale"] += 1
+                continue
+            if not inst.active:
+                inst.counts["meas_inactive"] += 1
+                continue
+            if inst.last_seq >= 0 and msg["seq"] > inst.last_seq + 1:
+                inst.counts["meas_lost"] += msg["seq"] - inst.last_seq - 1
+            inst.last_seq = msg["seq"]
+            if msg.header is not None and len(inst.meas_delays_ms) < 200_000:
+                inst.meas_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
+            inst.counts["meas_rx"] += 1
+            if inst.first_meas_rx_t is None:
+                inst.first_meas_rx_t = msg["t_sim"]
+            batch.setdefault(msg["wt"], []).append((msg, addr))
+
+    def _serve(self, batch: dict[int, list[tuple[wire.Message, tuple]]], now: float) -> None:
+        """One controller step per measurement, in sequence order; turbines stepped together."""
+        depth = max((len(v) for v in batch.values()), default=0)
+        for r in range(depth):
+            self._serve_round({w: v[r] for w, v in batch.items() if len(v) > r}, now)
+
+    def _serve_round(self, newest: dict[int, tuple[wire.Message, tuple]], now: float) -> None:
+        insts = [self.instances[w] for w in newest]
+        slots = np.array([i.slot for i in insts])
+        meas = {k: np.array([newest[i.wid][0][k] for i in insts]) for k in ControllerBank.MEAS_KEYS}
+        out, valid = self.bank.step(slots, meas)
+        for j, inst in enumerate(insts):
+            if not valid[j]:
+                inst.counts["ctrl_invalid"] += 1
+                continue
+            msg, addr = newest[inst.wid]
+            inst.ctrl_seq += 1
+            values = {"wt": inst.wid, "seq": inst.ctrl_seq, "meas_seq": msg["seq"],
+                      **{k: float(out[k][j]) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta",
+                                                        "omega", "e_mag")},
+                      "flags": int(out["limited"][j]) | (2 if self.cfg.get("role") == "backup" else 0)}
+            try:
+                self.sock.sendto(wire.encode(wire.MsgType.CTRL, values, header=self._header(inst.ctrl_seq, now)),
+                                 (addr[0], wire.PORT_TURBINE))
+                inst.counts["ctrl_tx"] += 1
+            except OSError:
+                inst.counts["ctrl_tx_error"] = inst.counts.get("ctrl_tx_error", 0) + 1
+
+    def _heartbeat(self, now: float) -> None:
+        self.hb_seq += 1
+        values = {"sdc_id": self.sdc_id, "seq": self.hb_seq,
+                  "n_instances": sum(i.active for i in self.instances.values()), "t_wall": now % 1e4}
+        try:
+            self.sock.sendto(wire.encode(wire.MsgType.HEARTBEAT, values, header=self._header(self.hb_seq, now)),
+                             self.controller)
+        except OSError:
+            pass
+
+    def run(self, until: float | None = None) -> None:
+        poller = select.epoll()
+        poller.register(self.sock.fileno(), select.EPOLLIN)
+        next_hb = time.time()
+        try:
+            while self.running and (until is None or time.time() < until):
+                poller.poll(HEARTBEAT_S / 2)
+                now = time.time()
+                self._serve(self._drain(now), now)
+                if now >= next_hb:
+                    self._heartbeat(now)
+                    next_hb = now + HEARTBEAT_S
+        finally:
+            poller.close()
+
+    def summary(self) -> dict:
+        return {
+            "sdc_id": self.sdc_id,
+            "role": self.cfg.get("role", "primary"),
+            "rx_wire": self.rx_stats.as_dict(),
+            "heartbeats_tx": self.hb_seq,
+            "unexpected_rx": self.unexpected_rx,
+            "events": self.events,
+            "turbines": {i.name: {**i.counts, "first_meas_rx_t": i.first_meas_rx_t,
+                                  "meas_one_way_ms": delay_summary(i.meas_delays_ms)}
+                         for i in self.instances.values()},
+        }
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m sdc_unit.service", description=__doc__)
+    parser.add_argument("--config", required=True)
+    args = parser.parse_args(argv)
+    cfg = json.loads(Path(args.config).read_text())
+    service = SdcService(cfg)
+    if cfg.get("realtime_priority", True):
+        raise_priority()
+
+    def stop(*_):
+        service.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    try:
+        service.run()
+    finally:
+        out = Path(cfg["out_dir"]) / f"sdc{service.sdc_id}_stats.json"
+        out.write_text(json.dumps(service.summary(), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

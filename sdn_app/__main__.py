@@ -1,0 +1,49 @@
+"""Launch the SDViSC SDN application on os-ken: ``python -m sdn_app --config FILE``.
+
+os-ken 4.x has no ``osken-manager`` command any more, so this does what it did: parse os-ken's
+options, set up logging, load the app with the OpenFlow handler and run until killed.
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m sdn_app", description=__doc__)
+    parser.add_argument("--config", required=True, help="JSON app configuration written by the runner")
+    parser.add_argument("--ofp-port", type=int, default=6653, help="OpenFlow listen port (default 6653)")
+    parser.add_argument("--listen-host", default="127.0.0.1", help="OpenFlow listen address")
+    parser.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    args = parser.parse_args(argv)
+
+    from sdn_app.config import ConfigError, load_config
+
+    try:
+        load_config(args.config)
+    except ConfigError as exc:
+        print(f"sdn_app: {exc}", file=sys.stderr)
+        return 1
+    os.environ["SDVISC_SDN_CONFIG"] = os.path.abspath(args.config)
+
+    from os_ken.lib import hub
+
+    hub.patch(thread=False)
+    from os_ken import cfg
+    from os_ken.base.app_manager import AppManager
+
+    cfg.CONF(args=[f"--ofp-tcp-listen-port={args.ofp_port}", f"--ofp-listen-host={args.listen_host}"],
+             project="os_ken")
+    logging.basicConfig(level=getattr(logging, args.log_level),
+                        format="%(asctime)s %(name)s %(levelname)s %(message)s")
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+    AppManager.run_apps(["sdn_app.app", "os_ken.controller.ofp_handler"])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

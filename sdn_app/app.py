@@ -1,0 +1,118 @@
+"""The os-ken application: a thin shim between OpenFlow events and :class:`sdn_app.logic.Controller`.
+
+It translates events into calls on the pure controller (passing the clock), sends back the
+messages the controller asks for, counts controller↔switch messages, and writes the tables,
+counters and events to the state directory for the runner, the CLI and users.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from collections import Counter
+from pathlib import Path
+
+from os_ken.base import app_manager
+from os_ken.controller import ofp_event
+from os_ken.controller.handler import CONFIG_DISPATCHER, MAIN_DISPATCHER, set_ev_cls
+from os_ken.lib import hub
+from os_ken.ofproto import ofproto_v1_3
+
+from sdn_app.config import load_config
+from sdn_app.logic import Controller
+from sdn_app.ofmsg import to_messages
+
+CONFIG_ENV = "SDVISC_SDN_CONFIG"
+TICK_S = 0.005
+PUBLISH_S = 0.1
+
+
+class SdviscApp(app_manager.OSKenApp):
+    """os-ken shim for the SDViSC SDN application."""
+
+    OFP_VERSIONS = [ofproto_v1_3.OFP_VERSION]
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.config = load_config(os.environ[CONFIG_ENV])
+        self.logic = Controller(self.config, now=time.time())
+        self.datapaths: dict[int, object] = {}
+        self.of_counts: Counter = Counter()
+        self.state_dir = Path(self.config.state_dir) if self.config.state_dir else None
+        if self.state_dir:
+            self.state_dir.mkdir(parents=True, exist_ok=True)
+            self._events_file = open(self.state_dir / "sdn_events.jsonl", "a", buffering=1)  # noqa: SIM115
+        else:
+            self._events_file = None
+        self._last_publish = 0.0
+        self.threads.append(hub.spawn(self._timer_loop))
+
+    # ------------------------------------------------------------------ plumbing
+    def _send(self, actions) -> None:
+        for action in actions:
+            dp = self.datapaths.get(action.dpid)
+            if dp is None:
+                self.of_counts["unsent_no_switch"] += 1
+                continue
+            for msg in to_messages(action, dp):
+                dp.send_msg(msg)
+                self.of_counts[f"tx_{type(msg).__name__}"] += 1
+                self.of_counts["tx_total"] += 1
+        self._flush_events()
+
+    def _flush_events(self) -> None:
+        events = self.logic.take_events()
+        if self._events_file:
+            for event in events:
+                self._events_file.write(json.dumps(event) + "\n")
+
+    def _publish(self) -> None:
+        if not self.state_dir:
+            return
+        state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
+                 "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
+                 "t_wall": time.time()}
+        tmp = self.state_dir / "sdn_state.json.tmp"
+        tmp.write_text(json.dumps(state, indent=1, sort_keys=True))
+        tmp.replace(self.state_dir / "sdn_state.json")
+
+    def _timer_loop(self) -> None:
+        while True:
+            now = time.time()
+            self._send(self.logic.tick(now))
+            if now - self._last_publish >= PUBLISH_S:
+                self._last_publish = now
+                self._publish()
+            hub.sleep(TICK_S)
+
+    # ------------------------------------------------------------------ OpenFlow events
+    @set_ev_cls(ofp_event.EventOFPSwitchFeatures, CONFIG_DISPATCHER)
+    def _features(self, ev):
+        dp = ev.msg.datapath
+        self.of_counts["rx_features"] += 1
+        self.datapaths[dp.id] = dp
+        self._send(self.logic.switch_up(dp.id, time.time()))
+
+    @set_ev_cls(ofp_event.EventOFPPacketIn, MAIN_DISPATCHER)
+    def _packet_in(self, ev):
+        msg = ev.msg
+        self.of_counts["rx_packet_in"] += 1
+        self.of_counts["rx_total"] += 1
+        self._send(self.logic.packet_in(msg.datapath.id, msg.match.get("in_port", 0), msg.data, time.time()))
+
+    @set_ev_cls(ofp_event.EventOFPPortStatus, MAIN_DISPATCHER)
+    def _port_status(self, ev):
+        msg = ev.msg
+        ofp = msg.datapath.ofproto
+        self.of_counts["rx_port_status"] += 1
+        self.of_counts["rx_total"] += 1
+        desc = msg.desc
+        up = not (desc.state & ofp.OFPPS_LINK_DOWN) and not (desc.config & ofp.OFPPC_PORT_DOWN)
+        if msg.reason == ofp.OFPPR_DELETE:
+            up = False
+        self._send(self.logic.port_status(msg.datapath.id, desc.port_no, up, time.time()))
+
+    @set_ev_cls(ofp_event.EventOFPEchoRequest, [CONFIG_DISPATCHER, MAIN_DISPATCHER])
+    def _echo(self, ev):
+        self.of_counts["rx_echo_keepalive"] += 1

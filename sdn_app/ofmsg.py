@@ -1,0 +1,37 @@
+"""Turn the pure actions of :mod:`sdn_app.flows` into OpenFlow 1.3 messages (no I/O here)."""
+
+from __future__ import annotations
+
+from sdn_app import flows as fl
+
+
+def to_messages(action, datapath) -> list:
+    """OpenFlow messages for one action, built with ``datapath``'s parser (tests may pass a stub
+    object with ``ofproto``/``ofproto_parser`` attributes)."""
+    ofp = datapath.ofproto
+    parser = datapath.ofproto_parser
+    if isinstance(action, fl.FlowAdd):
+        if action.out_port is None:
+            instructions = []
+        else:
+            port = ofp.OFPP_CONTROLLER if action.out_port == fl.TO_CONTROLLER else action.out_port
+            max_len = ofp.OFPCML_NO_BUFFER if action.out_port == fl.TO_CONTROLLER else 0
+            out = [parser.OFPActionOutput(port, max_len)]
+            instructions = [parser.OFPInstructionActions(ofp.OFPIT_APPLY_ACTIONS, out)]
+        return [parser.OFPFlowMod(
+            datapath=datapath, cookie=action.cookie, priority=action.priority,
+            match=parser.OFPMatch(**action.match), instructions=instructions,
+            command=ofp.OFPFC_ADD, buffer_id=ofp.OFP_NO_BUFFER,
+        )]
+    if isinstance(action, fl.FlowDelete):
+        return [parser.OFPFlowMod(
+            datapath=datapath, cookie=action.cookie, cookie_mask=0xFFFFFFFFFFFFFFFF,
+            command=ofp.OFPFC_DELETE, out_port=ofp.OFPP_ANY, out_group=ofp.OFPG_ANY,
+            match=parser.OFPMatch(),
+        )]
+    if isinstance(action, fl.PacketOut):
+        return [parser.OFPPacketOut(
+            datapath=datapath, buffer_id=ofp.OFP_NO_BUFFER, in_port=ofp.OFPP_CONTROLLER,
+            actions=[parser.OFPActionOutput(action.port, 0)], data=action.data,
+        )]
+    raise TypeError(f"unknown action {action!r}")

@@ -1,0 +1,105 @@
+"""Remove everything a testbed run can leave behind (``sdvisc clean``; also run on every exit path).
+
+Targets: the project's processes (SDN app, plant, SDC, OWFCC, tcpdump started by a run, Mininet
+host shells), Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
+the testbed's switches), and veth/tap devices named after them (``s1-eth2``, ``sub1``…). ``mn -c``
+misses the userspace datapath's leftovers; this does not.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import signal
+import subprocess
+import time
+
+SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
+BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
+LINK_RE = re.compile(rf"^(?:{SWITCH_NAME})(?:-eth\d+)?$")
+PROCESS_MARKERS = ("-m sdn_app", "-m plant.service", "-m sdc_unit.service", "-m sdvisc.owfcc",
+                   "sdvisc-capture", "mininet:")
+
+
+def _run(*args: str) -> str:
+    try:
+        return subprocess.run(args, capture_output=True, text=True, timeout=20).stdout
+    except (OSError, subprocess.TimeoutExpired):
+        return ""
+
+
+def project_processes() -> list[tuple[int, str]]:
+    """(pid, cmdline) of processes a run starts, except this process and its ancestors."""
+    own = {os.getpid(), os.getppid()}
+    found = []
+    for entry in os.listdir("/proc"):
+        if not entry.isdigit() or int(entry) in own:
+            continue
+        try:
+            with open(f"/proc/{entry}/cmdline", "rb") as fh:
+                cmd = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
+        except OSError:
+            continue
+        if any(marker in cmd for marker in PROCESS_MARKERS):
+            found.append((int(entry), cmd))
+    return found
+
+
+def kill_processes(grace_s: float = 1.0) -> list[int]:
+    procs = project_processes()
+    for pid, _ in procs:
+        try:
+            os.kill(pid, signal.SIGTERM)
+        except ProcessLookupError:
+            pass
+    deadline = time.time() + grace_s
+    while time.time() < deadline and any(os.path.exists(f"/proc/{p}") for p, _ in procs):
+        time.sleep(0.05)
+    for pid, _ in procs:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    return [p for p, _ in procs]
+
+
+def testbed_bridges() -> list[str]:
+    out = []
+    for br in _run("ovs-vsctl", "--timeout=5", "list-br").split():
+        marked = "sdvisc" in _run("ovs-vsctl", "--timeout=5", "br-get-external-id", br)
+        if marked or BRIDGE_RE.match(br):
+            out.append(br)
+    return out
+
+
+def testbed_links() -> list[str]:
+    names = []
+    for line in _run("ip", "-o", "link", "show").splitlines():
+        parts = line.split(":")
+        if len(parts) < 2:
+            continue
+        name = parts[1].strip().split("@")[0]
+        if LINK_RE.match(name):
+            names.append(name)
+    return names
+
+
+def leftovers() -> dict:
+    """What a run left behind, without removing anything."""
+    return {"processes": [p for p, _ in project_processes()], "bridges": testbed_bridges(), "links": testbed_links()}
+
+
+def clean(verbose: bool = False) -> dict:
+    """Remove all leftovers; returns what was removed."""
+    removed = {"processes": kill_processes(), "bridges": [], "links": []}
+    bridges = testbed_bridges()
+    if bridges:
+        _run("ovs-vsctl", "--timeout=10", *sum((["--", "--if-exists", "del-br", b] for b in bridges), []))
+        removed["bridges"] = bridges
+    for link in testbed_links():
+        _run("ip", "link", "del", link)
+        removed["links"].append(link)
+    if verbose:
+        for kind, items in removed.items():
+            print(f"sdvisc clean: removed {len(items)} {kind}" + (f": {' '.join(map(str, items))}" if items else ""))
+    return removed

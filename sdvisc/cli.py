@@ -1,0 +1,106 @@
+"""The ``sdvisc`` command: ``run``, ``check``, ``clean``, ``pcap``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+DEFAULT_SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "default.yaml"
+
+
+def _cmd_check(args) -> int:
+    from scenarios.loader import ScenarioError, load_scenario
+
+    status = 0
+    for path in args.files:
+        try:
+            sc = load_scenario(path)
+        except ScenarioError as exc:
+            print(exc, file=sys.stderr)
+            status = 1
+            continue
+        print(f"{path}: ok ({sc.name}: {sc.topology.name}, {sc.duration_s} s, {len(sc.timeline)} events)")
+    return status
+
+
+def _cmd_run(args) -> int:
+    from scenarios.loader import ScenarioError, load_scenario
+    from scenarios.runner import RunError, run_scenario
+
+    path = args.scenario or DEFAULT_SCENARIO
+    try:
+        scenario = load_scenario(path)
+    except ScenarioError as exc:
+        print(exc, file=sys.stderr)
+        return 1
+    out = Path(args.out or Path("results") / scenario.name)
+    if args.pcap:
+        scenario.capture.pcap = True
+    print(f"sdvisc: running {path} -> {out}/")
+    try:
+        summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path))
+    except RunError as exc:
+        print(f"sdvisc: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("\nsdvisc: interrupted; network torn down, partial results in " + str(out), file=sys.stderr)
+        return 130
+    _print_result(summary, out)
+    return 0
+
+
+def _print_result(summary: dict, out: Path) -> None:
+    print(f"sdvisc: {summary['scenario']}: {summary['steps']} steps of {summary['step_s'] * 1e3:.2f} ms, "
+          f"{summary['late_steps']} late")
+    for name, t in summary["turbines"].items():
+        p = t["packets"]
+        d = t["one_way_delay_ms"]["meas_to_sdc"] or {}
+        print(f"  {name}: meas_tx={p['meas_tx']} meas_rx_sdc={p['meas_rx_sdc']} ctrl_tx_sdc={p['ctrl_tx_sdc']} "
+              f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  one-way p50={d.get('p50', float('nan')):.2f} ms")
+    for r in summary["recoveries"]:
+        print(f"  recovery {r['wt']} ({r['cause']}): {r['recovery_ms']:.1f} ms")
+    print(f"sdvisc: results in {out}/summary.json, events.jsonl, timeseries.csv")
+
+
+def _cmd_clean(args) -> int:
+    from sdvisc.cleanup import clean
+
+    clean(verbose=True)
+    return 0
+
+
+def _cmd_pcap(args) -> int:
+    from sdvisc.pcap import main as pcap_main
+
+    return pcap_main(args.rest)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="sdvisc", description="SDViSC testbed: run and check scenarios")
+    sub = parser.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("run", help="run a scenario on Mininet + Open vSwitch + os-ken")
+    p.add_argument("scenario", nargs="?", help=f"scenario YAML (default {DEFAULT_SCENARIO.name})")
+    p.add_argument("--out", help="output directory (default results/<scenario name>)")
+    p.add_argument("--cli", action="store_true", help="open the Mininet CLI while the scenario runs")
+    p.add_argument("--pcap", action="store_true", help="capture on the SDC host into the output directory")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=_cmd_run)
+    p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
+    p.add_argument("files", nargs="+")
+    p.set_defaults(func=_cmd_check)
+    p = sub.add_parser("clean", help="remove what a crashed run left (processes, bridges, veths)")
+    p.set_defaults(func=_cmd_clean)
+    p = sub.add_parser("pcap", help="decode a testbed capture (GTNET-SKT messages)")
+    p.add_argument("rest", nargs=argparse.REMAINDER)
+    p.set_defaults(func=_cmd_pcap)
+    args = parser.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
+
+
+

@@ -1,0 +1,58 @@
+"""The 50-turbine offshore farm's communication network, in two layouts.
+
+``compact`` (default under the userspace datapath, where every bridge costs latency):
+one OpenFlow switch ``c<k>`` per cluster with its turbines attached, and the cluster switches
+and two substation switches ``sub1``/``sub2`` closed in a ring
+(``sub1 – c1 – c2 – … – c<K> – sub2 – sub1``). ``owfcc`` and ``sdc1`` hang on ``sub1``,
+``sdc2`` on ``sub2``.
+
+``tower`` (realistic; for machines with the kernel datapath): each turbine sits behind its own
+tower switch ``t<k>x<n>``; a cluster's tower switches form a string whose two ends are closed at
+the substation (first tower on ``sub1``, last on ``sub2``), and ``sub1 – sub2`` are linked.
+
+In both, any single switch-to-switch link failure leaves another path.
+"""
+
+from __future__ import annotations
+
+from topologies.base import TestbedTopo
+
+LAYOUTS = ("compact", "tower")
+
+
+class FarmTopo(TestbedTopo):
+    """``clusters`` × ``turbines`` turbine hosts ``wt<c>_<n>`` on a ring-protected network."""
+
+    def build(self, clusters: int = 5, turbines: int = 10, layout: str = "compact"):
+        if layout not in LAYOUTS:
+            raise ValueError(f"farm layout must be one of {LAYOUTS}, got {layout!r}")
+        sub1 = self.add_switch("sub1", dpid=1)
+        sub2 = self.add_switch("sub2", dpid=2)
+        self.addLink(self.add_service_host("owfcc"), sub1)
+        self.addLink(self.add_service_host("sdc1"), sub1)
+        self.addLink(self.add_service_host("sdc2"), sub2)
+        self.addLink(sub1, sub2)
+        if layout == "compact":
+            self._build_compact(sub1, sub2, clusters, turbines)
+        else:
+            self._build_tower(sub1, sub2, clusters, turbines)
+
+    def _build_compact(self, sub1: str, sub2: str, clusters: int, turbines: int) -> None:
+        previous = sub1
+        for c in range(1, clusters + 1):
+            switch = self.add_switch(f"c{c}", dpid=0x10 + c)
+            self.addLink(previous, switch)
+            for n in range(1, turbines + 1):
+                self.addLink(self.add_turbine(c, n), switch)
+            previous = switch
+        self.addLink(previous, sub2)
+
+    def _build_tower(self, sub1: str, sub2: str, clusters: int, turbines: int) -> None:
+        for c in range(1, clusters + 1):
+            previous = sub1
+            for n in range(1, turbines + 1):
+                tower = self.add_switch(f"t{c}x{n}", dpid=0x1000 * c + n)
+                self.addLink(previous, tower)
+                self.addLink(self.add_turbine(c, n), tower)
+                previous = tower
+            self.addLink(previous, sub2)
