@@ -62,8 +62,8 @@ def build_model(cfg: dict, n: int):
 
         return MinimalPlant(n, step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1))
     if kind == "full":
-        from plant.sim import Plant
         from plant.params import PlantParams
+        from plant.sim import Plant
 
         return Plant(PlantParams(), n_turbines=n, step_s=step_s)
     raise ValueError(f"unknown plant model {kind!r}")

@@ -73,7 +73,7 @@ class Plant:
         v = np.ones(n, dtype=complex)
         vall = np.ones(net.n_nodes, dtype=complex)
         for _ in range(200):
-            i = np.conj((self.tb.p_cmd + 1j * self.tb.q_cmd) / v)
+            i = np.conj((self.tb.p_star(self.tb.wr0()) + 1j * self.tb.q_cmd) / v)
             inj = net.injections(i, g.e_grid, vall[net.sc], 0.0)
             vnew = net.solve(inj)
             if np.max(np.abs(vnew - vall)) < 1e-13:
@@ -376,13 +376,16 @@ class Plant:
         self.tb.battery[np.atleast_1d(index)] = bool(on)
         self._cache = None
 
-    def set_power_ref(self, index, p=None, q=None) -> None:
-        """Grid-following P*/Q* (turbine p.u.)."""
+    def set_power_ref(self, index, p=None, q=None, mppt: bool = False) -> None:
+        """Grid-following P*/Q* (turbine p.u.); ``mppt=True`` returns P* to the MPPT curve."""
         idx = np.atleast_1d(index)
         if p is not None:
             self.tb.p_cmd[idx] = p
+            self.tb.mppt[idx] = False
         if q is not None:
             self.tb.q_cmd[idx] = q
+        if mppt:
+            self.tb.mppt[idx] = True
         self._cache = None
 
     def set_avr_ref(self, v: float) -> None:
@@ -452,11 +455,27 @@ class Plant:
 
     # ================================================================== for reference solvers
     def rhs_real(self, _t, y):
-        """Real flat right-hand side of the (non-law) state for scipy.integrate.solve_ivp."""
-        X = y[: self.size] + 1j * y[self.size:]
-        dX, _, aux = self._rhs(X, self.xl, want_aux=True)
+        """Real flat right-hand side (plant state + law state) for scipy.integrate.solve_ivp.
+
+        Identical equations to ``step`` except that aerodynamics are evaluated at every call.
+        """
+        X = y[: self.size] + 1j * y[self.size:2 * self.size]
+        xl = None if self.xl is None else y[2 * self.size:].reshape(np.shape(self.xl))
+        dX, dxl, aux = self._rhs(X, xl, want_aux=True)
         self._v_pcc_last = aux["V"][self.net.pcc]
-        return np.concatenate([dX.real, dX.imag])
+        parts = [dX.real, dX.imag]
+        if dxl is not None:
+            parts.append(np.ravel(dxl))
+        return np.concatenate(parts)
 
     def state_real(self):
-        return np.concatenate([self.X.real, self.X.imag])
+        parts = [self.X.real, self.X.imag]
+        if self.xl is not None:
+            parts.append(np.ravel(self.xl))
+        return np.concatenate(parts)
+
+    def set_state_real(self, y) -> None:
+        self.X = y[: self.size] + 1j * y[self.size:2 * self.size]
+        if self.xl is not None:
+            self.xl = y[2 * self.size:].reshape(np.shape(self.xl))
+        self._cache = None

@@ -19,7 +19,8 @@ Equations (t in s, w0 = OMEGA0):
     v_conv limited to |v_conv| <= m_max v_dc                     average model, DC-limited
     grid-following (PLL frame, rot = e^{j theta}):
         e_v = Im(v e^{-j theta}) / |v|,  dtheta/dt = w0 (kp_pll e_v + x_p), dx_p/dt = ki_pll e_v
-        i* = (P* - j(-Q*)) / V_d  (circular limit i_max_gfl),  e = i* - i e^{-j theta}
+        i* = (P* - j Q*) / V_d  (circular limit i_max_gfl),  e = i* - i e^{-j theta}
+        P* = min(w_r^3, 1) (MPPT curve: optimal tip-speed ratio below rated) or a commanded value
         v_conv = v + j lf i + (kpc e + kic xi) e^{j theta},  dxi/dt = e  (frozen while DC-limited)
     hd_visc: v_conv = sdc_unit.law.outputs(x, meas).v_ref (law states integrated by the plant)
     remote:  v_conv = last received reference (held)
@@ -72,7 +73,8 @@ class TurbineBank:
         self.mode = np.zeros(n, dtype=int)
         self.battery = np.zeros(n, dtype=bool)
         self.q_cmd = np.zeros(n)
-        self.p_cmd = np.minimum(1.0, (self.v_wind / params.v_wind_rated) ** 3)
+        self.p_cmd = np.zeros(n)
+        self.mppt = np.ones(n, dtype=bool)  # grid-following P* from the MPPT curve (else p_cmd)
         self.v_hold = np.zeros(n, dtype=complex)
         self.last_rx_step = np.zeros(n, dtype=np.int64)
         self.fallback_enabled = True
@@ -93,6 +95,13 @@ class TurbineBank:
     def p_avail(self, wr):
         return np.minimum(self.p.p_me_max, self.p_aero(wr, 0.0))
 
+    def wr0(self):
+        return np.minimum(self.p.omega_r_ref, self.v_wind / self.p.v_wind_rated)
+
+    def p_star(self, wr):
+        """Grid-following active-power reference: MPPT curve P = min(w_r^3, 1) or the command."""
+        return np.where(self.mppt, np.minimum(np.maximum(wr, 0.0) ** 3, 1.0), self.p_cmd)
+
     # ------------------------------------------------------------------ controls
     def gfl_vconv(self, S, v):
         """Grid-following converter voltage (unlimited) and PLL error."""
@@ -103,7 +112,7 @@ class TurbineBank:
         vmag = np.maximum(np.abs(v), 0.1)
         ev = vp.imag / vmag
         vd = np.maximum(vp.real, 0.3)
-        iref = (self.p_cmd + 1j * self.q_cmd) .conjugate() / vd
+        iref = (self.p_star(S[WR].real) - 1j * self.q_cmd) / vd
         im = np.abs(iref)
         iref = np.where(im > p.i_max_gfl, iref * (p.i_max_gfl / np.maximum(im, 1e-9)), iref)
         e = iref - i * rot.conj()
@@ -177,15 +186,16 @@ class TurbineBank:
         S[W] = p.v_dc_ref**2
         pconv = (vconv * i.conj()).real
         S[XD] = pconv
-        S[WR] = p.omega_r_ref
+        wr0 = self.wr0()
+        S[WR] = wr0
         # pitch: bisection for P_aero(1, beta) = pconv (beta >= 0)
         lo, hi = np.zeros(n), np.full(n, p.beta_max)
         for _ in range(50):
             mid = 0.5 * (lo + hi)
-            too_much = self.p_aero(np.ones(n), mid) > pconv
+            too_much = self.p_aero(wr0, mid) > pconv
             lo = np.where(too_much, mid, lo)
             hi = np.where(too_much, hi, mid)
-        beta = np.where(self.p_aero(np.ones(n), 0.0) > pconv, 0.5 * (lo + hi), 0.0)
+        beta = np.where(self.p_aero(wr0, 0.0) > pconv, 0.5 * (lo + hi), 0.0)
         S[B] = beta
         S[XB] = beta
         return S
@@ -196,6 +206,7 @@ class TurbineBank:
         i = S[I, idx]
         s_now = v[idx] * i.conj()
         self.p_cmd[idx] = s_now.real
+        self.mppt[idx] = False
         self.q_cmd[idx] = 0.0
         self.mode[idx] = GFL
         vconv_gfl, e, _ = self.gfl_vconv(S, v)

@@ -58,6 +58,7 @@ class Run:
         self._stdin_lock = threading.Lock()
         self.finished = threading.Event()
         self.datapath = default_datapath()
+        self.exited_early: dict[str, int] = {}
 
     # ------------------------------------------------------------------ set-up
     def _say(self, text: str) -> None:
@@ -164,7 +165,7 @@ class Run:
         if sc.capture.pcap:
             for h in sc.capture.hosts:
                 node = self.net.get(h)
-                self._popen(f"{h}.tcpdump", ["tcpdump", "-i", node.defaultIntf().name, "-U", "-w",
+                self._popen(f"{h}.tcpdump", ["tcpdump", "-i", node.defaultIntf().name, "-B", "16384", "--immediate-mode", "-w",
                                              str(self.out / f"sdvisc-capture-{h}.pcap"), "udp"], host=node)
         turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"],
                      "pid": self.net.get(n).pid} for n, h in sorted(hosts.items()) if h["role"] == "turbine"]
@@ -257,6 +258,10 @@ class Run:
     # ------------------------------------------------------------------ teardown
     def stop_services(self) -> None:
         """Stop the services so they write their statistics (SIGTERM/EOF, then SIGKILL)."""
+        for name, proc in self.procs.items():
+            code = proc.poll()
+            if code is not None and name != "plant":
+                self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
         order = ["owfcc.owfcc", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \
                 [n for n in self.procs if n.endswith(".tcpdump")] + ["controller"]
         for name in order:

@@ -99,6 +99,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "turbines": turbines,
         "events": events,
         "recoveries": [],
+        "processes_exited_early": dict(run.exited_early),
         "openflow": sdn.get("openflow", {}),
         "sdn_counters": sdn.get("counters", {}),
         "tables": {k: sdn.get("tables", {}).get(k, {}) for k in ("T1", "T2", "T3")},

@@ -11,6 +11,8 @@ every measurement with the converter voltage of the operating point it saw first
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 
 VISC_METHODS = ("tustin", "trapezoid_cumulative", "euler")
@@ -48,7 +50,6 @@ class ControllerBank:
 
             self.visc = DiscreteVisc(capacity, ViscParams(), ts=step_s, method=method,
                                      dtype=np.float32 if dtype == "float32" else np.float64)
-            self.visc.active[:] = False
 
     def start(self, slot: int, params: dict) -> None:
         self.started[slot] = True
@@ -59,7 +60,7 @@ class ControllerBank:
         self.started[slot] = False
         self.initialised[slot] = False
         if self.visc is not None:
-            self.visc.active[slot] = False
+            self.visc.deactivate([slot])
 
     def set_params(self, slot: int, params: dict) -> None:
         changes = params_from_mask(params)
@@ -81,8 +82,7 @@ class ControllerBank:
             i = one["i_d"][0] + 1j * one["i_q"][0]
             self.hold_v[slot] = v + self.z_f * i
             if self.visc is not None:
-                self.visc.active[slot] = True
-                self.visc.initialise(slot, {k: float(a[0]) for k, a in one.items()})
+                self.visc.initialise([slot], SimpleNamespace(**{k: float(a[0]) for k, a in one.items()}))
                 if self.pending_params.get(slot):
                     self.visc.set_params(slot, **self.pending_params.pop(slot))
             self.initialised[slot] = True
@@ -112,7 +112,7 @@ class ControllerBank:
         stepping[slots[usable]] = True
         self.visc.active[:] = saved & stepping
         try:
-            result = self.visc.step(full)
+            result = self.visc.step(SimpleNamespace(**full))
         finally:
             self.visc.active[:] = saved
         valid = usable & np.asarray(result.valid)[slots]

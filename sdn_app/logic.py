@@ -101,7 +101,7 @@ class Controller:
     def _egress(self, host: str) -> tuple[int, int] | None:
         """(dpid, port) of the OpenFlow switch port from which a packet-out reaches ``host``."""
         best = None
-        for switch, dpid in sorted(self.dpids.items()):
+        for switch in sorted(self.dpids):
             path = self._path_to(switch, host)
             if path is not None and (best is None or len(path) < len(best)):
                 best = path

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 
@@ -61,6 +60,8 @@ def _print_result(summary: dict, out: Path) -> None:
               f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  one-way p50={d.get('p50', float('nan')):.2f} ms")
     for r in summary["recoveries"]:
         print(f"  recovery {r['wt']} ({r['cause']}): {r['recovery_ms']:.1f} ms")
+    for name, code in summary.get("processes_exited_early", {}).items():
+        print(f"sdvisc: warning: {name} exited early with code {code}; see {out}/{name}.log")
     print(f"sdvisc: results in {out}/summary.json, events.jsonl, timeseries.csv")
 
 

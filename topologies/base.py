@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import os
 import re
+
 from mininet.node import OVSBridge, OVSSwitch
 from mininet.topo import Topo
 

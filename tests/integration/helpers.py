@@ -1,0 +1,32 @@
+"""Running the real testbed from tests: subprocess wrappers and leftover checks."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def sdvisc(*args: str, timeout: float = 300, **kw) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "sdvisc.cli", *args], cwd=ROOT, capture_output=True, text=True,
+                          timeout=timeout, env=dict(os.environ, PYTHONUNBUFFERED="1"), **kw)
+
+
+def run_scenario(path: str | Path, out: Path, *extra: str, timeout: float = 300) -> dict:
+    res = sdvisc("run", str(path), "--out", str(out), "--quiet", *extra, timeout=timeout)
+    assert res.returncode == 0, f"sdvisc run failed ({res.returncode}):\n{res.stdout}\n{res.stderr}"
+    return json.loads((out / "summary.json").read_text())
+
+
+def assert_no_leftovers() -> None:
+    from sdvisc.cleanup import leftovers
+
+    left = leftovers()
+    assert left == {"processes": [], "bridges": [], "links": []}, f"a run left things behind: {left}"
+    # Mininet host shells are gone too (their network namespaces die with them)
+    shells = subprocess.run(["pgrep", "-f", "mininet:"], capture_output=True, text=True).stdout.split()
+    assert not shells, f"Mininet host shells left: {shells}"

@@ -1,0 +1,94 @@
+"""The foundation's end-to-end proof on real Mininet + Open vSwitch + os-ken, and clean teardown."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from sdvisc.pcap import read_pcap
+from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario, sdvisc
+
+pytestmark = pytest.mark.network
+
+WT_IP, SDC_IP = "10.0.1.1", "10.0.0.21"
+
+
+def test_smoke_scenario_serves_wt1_1_only_after_the_request(tmp_path):
+    summary = run_scenario(ROOT / "scenarios" / "smoke.yaml", tmp_path, "--pcap")
+    assert summary["completed"] and summary["scenario"] == "smoke"
+    ts = summary["step_s"]
+    wt = summary["turbines"]["wt1_1"]
+    packets = wt["packets"]
+    expected = (3.0 - 1.0) / ts
+    assert packets["ctrl_rx"] == pytest.approx(expected, rel=0.02), packets
+    assert packets["meas_tx"] == pytest.approx(expected, rel=0.02)
+    assert packets["meas_rx_sdc"] >= 0.98 * packets["meas_tx"]
+    assert packets["ctrl_tx_sdc"] >= 0.98 * packets["meas_rx_sdc"]
+    assert packets["ak_tx"] == pytest.approx(2.0 / 0.01, rel=0.05)
+    assert wt["first_meas_tx_t"] >= 1.0 and wt["first_ctrl_rx_t"] >= 1.0
+    assert wt["one_way_delay_ms"]["meas_to_sdc"]["p50"] > 0
+    assert list(summary["turbines"]) == ["wt1_1"]  # nobody else talked to an SDC
+    assert summary["recoveries"] == []
+    types = [e["type"] for e in summary["events"]]
+    assert "visc_on" in types and "owfcc_reply" in types
+    # the capture on sdc1 is the ground truth: nothing between wt1_1 and sdc1 before t = 1 s
+    t0 = summary["t0_wall"]
+    between = [r for r in read_pcap(tmp_path / "sdvisc-capture-sdc1.pcap")
+               if {r.src.split(":")[0], r.dst.split(":")[0]} == {WT_IP, SDC_IP}]
+    assert len(between) >= 0.98 * (packets["meas_rx_sdc"] + packets["ctrl_tx_sdc"])
+    assert min(r.time for r in between) - t0 >= 1.0
+    assert all(r.message is not None for r in between)
+    assert_no_leftovers()
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_interrupted_run_leaves_nothing_behind(tmp_path, sig):
+    proc = subprocess.Popen([sys.executable, "-m", "sdvisc.cli", "run", str(ROOT / "scenarios" / "smoke.yaml"),
+                             "--out", str(tmp_path), "--quiet"], cwd=ROOT, start_new_session=True,
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.time() + 60
+    status = tmp_path / "plant_status.json"
+    while time.time() < deadline:
+        try:
+            if json.loads(status.read_text())["t_sim"] > 1.3:
+                break
+        except (OSError, ValueError, KeyError):
+            pass
+        assert proc.poll() is None, proc.stdout.read()
+        time.sleep(0.05)
+    else:
+        proc.kill()
+        pytest.fail("the run did not reach t = 1.3 s")
+    # Ctrl-C in a terminal signals the whole foreground process group
+    import os
+
+    os.killpg(proc.pid, sig) if sig == signal.SIGINT else proc.send_signal(sig)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 130, out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["completed"] is False
+    assert summary["turbines"]["wt1_1"]["packets"]["ctrl_rx"] > 0
+    assert_no_leftovers()
+
+
+def test_run_refuses_a_malformed_scenario_without_touching_the_network(tmp_path):
+    bad = tmp_path / "bad.yaml"
+    bad.write_text("name: x\nduration_s: 2\ntimeline:\n  - {t: 1, do: visc_on, wt: wt1_1, speed: 3}\n")
+    res = sdvisc("run", str(bad), "--out", str(tmp_path / "out"))
+    assert res.returncode == 1
+    assert f"{bad}:4: timeline.0.speed: unknown key" in res.stderr
+    assert not (tmp_path / "out").exists()
+
+
+def test_clean_command_removes_a_crashed_runs_leftovers():
+    subprocess.run(["ovs-vsctl", "add-br", "s7", "--", "set", "bridge", "s7", "datapath_type=netdev"], check=True)
+    subprocess.run(["ip", "link", "add", "s7-eth1", "type", "veth", "peer", "name", "s8-eth1"], check=True)
+    res = sdvisc("clean")
+    assert res.returncode == 0, res.stderr
+    assert "removed 1 bridges" in res.stdout
+    assert_no_leftovers()

@@ -1,0 +1,96 @@
+"""Steady state of the 500 MW farm, power balance and the measurement interface (validation item 1)."""
+
+import numpy as np
+import pytest
+
+from plant.params import PlantParams
+from plant.sim import Plant
+
+MEAS_KEYS = ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
+
+
+@pytest.fixture(scope="module")
+def settled():
+    p = Plant(n_turbines=50)
+    p.run_offline(0.3, record_every=10_000)
+    return p
+
+
+def test_power_balance_at_rated_wind(settled):
+    p = settled
+    o = p.outputs()
+    kt = p.params.turbine.s_rated_mva / p.params.grid.s_base_mva
+    ksc = p.params.condenser.s_rated_mva / p.params.grid.s_base_mva
+    p_turb = np.sum(o["p_wt"]) * kt  # network base
+    # independent accounting: power into the grid at the PCC + sum of R|I|^2 of every series branch
+    # + power absorbed by the condenser (its own losses are not in the branch list)
+    balance = o["p_grid"] + o["losses"] - o["p_sc"] * ksc
+    err = abs(p_turb - balance) / p_turb
+    print(f"\nturbines {p_turb * 500:.2f} MW, grid {o['p_grid'] * 500:.2f} MW, losses {o['losses'] * 500:.2f} MW,"
+          f" SC {o['p_sc'] * 40:.4f} MW, mismatch {err:.2e}")
+    assert err < 1e-3
+    assert np.allclose(o["p_wt"], 1.0, atol=1e-3), "rated wind: every turbine at 1 p.u."
+    assert 0.005 < o["losses"] / p_turb < 0.05
+
+
+def test_state_is_stationary(settled):
+    p = settled
+    dX, _, _ = p._rhs(p.X, p.xl)
+    assert np.max(np.abs(dX)) < 1e-6
+    o = p.outputs()
+    assert 0.95 < o["v_pcc"] < 1.05 and abs(o["f_pcc"] - 1.0) < 1e-6
+    assert np.allclose(o["v_dc"], 1.0, atol=1e-6)
+    assert np.all(o["pitch"] > 0.0), "above rated wind the pitch controller sheds power"
+
+
+def test_measurement_dict(settled):
+    m = settled.measurements()
+    assert set(MEAS_KEYS) <= set(m)
+    for k in MEAS_KEYS:
+        assert m[k].shape == (50,) and np.all(np.isfinite(m[k]))
+    s = (m["v_d"] + 1j * m["v_q"]) * np.conj(m["i_d"] + 1j * m["i_q"])
+    assert np.allclose(s.real, m["p"]) and np.allclose(s.imag, m["q"])
+    assert np.allclose(m["p"], 1.0, atol=1e-3)
+
+
+def test_outputs_keys(settled):
+    o = settled.outputs()
+    for k in ("t", "v_pcc", "f_pcc", "p_wt", "q_wt", "i_wt", "p_sc", "q_sc", "sc_delta", "sc_e", "visc_delta",
+              "visc_e", "v_dc", "pitch"):
+        assert k in o
+
+
+def test_wind_below_rated_gives_mppt_power():
+    pp = PlantParams(v_wind=9.0)
+    p = Plant(pp, n_turbines=5)
+    p.run_offline(0.2, record_every=10_000)
+    o = p.outputs()
+    expected = (9.0 / pp.turbine.v_wind_rated) ** 3
+    assert np.allclose(o["p_wt"], expected, rtol=1e-2)
+    assert np.allclose(o["pitch"], 0.0)
+
+
+def test_remote_fallback_after_loss():
+    p = Plant(n_turbines=5)
+    p.set_mode([1, 2], "remote")
+    m = p.measurements()
+    v = m["v_d"] + 1j * m["v_q"]
+    i = m["i_d"] + 1j * m["i_q"]
+    vc = v + (p.params.turbine.rf + 1j * p.params.turbine.lf) * i
+    n_ok = int(0.05 / p.step_s)
+    for _ in range(n_ok):
+        p.step(([1, 2], vc[[1, 2]].real, vc[[1, 2]].imag))
+    assert (p.tb.mode[[1, 2]] == 2).all()
+    # turbine 2 keeps receiving, turbine 1 loses its stream
+    n_loss = int(0.12 / p.step_s)
+    for _ in range(n_loss):
+        p.step(([2], vc[[2]].real, vc[[2]].imag))
+    assert p.tb.mode[1] == 0 and p.tb.fell_back[1], "turbine 1 must fall back to grid-following"
+    assert p.tb.mode[2] == 2
+    o = p.outputs()
+    assert abs(o["p_wt"][1] - 1.0) < 0.02 and abs(o["q_wt"][1]) < 0.02
+    p.set_remote_fallback(False)
+    p.set_mode(3, "remote")
+    for _ in range(n_loss):
+        p.step()
+    assert p.tb.mode[3] == 2, "with the flag off the last reference is held"
