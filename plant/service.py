@@ -30,6 +30,8 @@ from sdvisc import wire
 from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
 
+CTRL_GAP_S = 0.005  # a pause between control packets longer than this is recorded as a gap
+
 
 @dataclass
 class Endpoint:
@@ -52,6 +54,10 @@ class Endpoint:
     last_ctrl_rx_t: float | None = None
     ctrl_delays_ms: list = field(default_factory=list)
     ak_ones: int = 0
+    ctrl_gaps: list = field(default_factory=list)
+    last_v_ref: complex | None = None
+    backup_seen: bool = False
+    takeover_jump: float | None = None
 
 
 def build_model(cfg: dict, n: int):
@@ -129,11 +135,21 @@ class PlantService:
                     ep.counts["rx_rejected"] += 1
 
     def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
-        if msg["seq"] <= ep.ctrl_seq:  # duplicate or out of order: never apply an older value
+        # ordered by the measurement it answers (our own counter, whichever SDC answered it):
+        # a duplicate or out-of-order answer is never applied after a newer one
+        if msg["meas_seq"] <= ep.ctrl_seq:
             ep.counts["ctrl_stale"] += 1
             return
-        ep.ctrl_seq = msg["seq"]
+        ep.ctrl_seq = msg["meas_seq"]
         ep.counts["ctrl_rx"] += 1
+        if ep.last_ctrl_wall > float("-inf") and now - ep.last_ctrl_wall > CTRL_GAP_S:
+            ep.ctrl_gaps.append((ep.last_ctrl_wall, now))
+        v_ref = complex(msg["v_ref_d"], msg["v_ref_q"])
+        from_backup = bool(msg["flags"] & 2)
+        if from_backup and not ep.backup_seen:
+            ep.backup_seen = True
+            ep.takeover_jump = abs(v_ref - ep.last_v_ref) if ep.last_v_ref is not None else None
+        ep.last_v_ref = v_ref
         ep.last_ctrl_wall = now
         t_sim = self.k * self.step_s
         ep.last_ctrl_rx_t = t_sim
@@ -277,6 +293,8 @@ class PlantService:
             "turbines": {
                 ep.name: {**ep.counts, "first_meas_tx_t": ep.first_meas_tx_t, "first_ctrl_rx_t": ep.first_ctrl_rx_t,
                           "last_ctrl_rx_t": ep.last_ctrl_rx_t, "ak_ones": ep.ak_ones,
+                          "ctrl_gaps_wall": ep.ctrl_gaps, "takeover_jump_pu": ep.takeover_jump,
+                          "last_ctrl_wall": ep.last_ctrl_wall if ep.last_ctrl_wall > float("-inf") else None,
                           "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms)}
                 for ep in self.endpoints
             },

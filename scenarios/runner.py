@@ -93,6 +93,9 @@ class Run:
         port = _free_port()
         app_cfg = {"topology": self.desc, "controller_vip": CONTROLLER_VIP, "controller_vmac": CONTROLLER_VMAC,
                    "visc_disabled": sc.sdn.visc_disabled, "dr_hold_s": sc.sdn.dr_hold_s,
+                   "ak_timeout_s": sc.sdn.ak_timeout_s, "dynamic_routing": sc.sdn.dynamic_routing,
+                   "reroute_on_port_status": sc.sdn.reroute_on_port_status, "failover": sc.sdn.failover,
+                   "sdc_dead_s": sc.sdn.sdc_dead_s, "mirror_to_backup": sc.sdn.mirror_to_backup,
                    "backup_sdc": "sdc2" if sc.sdc.backup else None, "state_dir": str(self.out)}
         cfg_path = self._write_json("sdn_config.json", app_cfg)
         self._popen("controller", [self.python, "-m", "sdn_app", "--config", str(cfg_path), "--ofp-port", str(port)])
@@ -156,7 +159,8 @@ class Run:
         sdcs = [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
         for host, sdc_id, role in sdcs:
             cfg = self._write_json(f"{host}_config.json", {**base, "sdc_id": sdc_id, "role": role,
-                                                           "method": sc.sdc.method, "dtype": sc.sdc.dtype})
+                                                           "method": sc.sdc.method, "dtype": sc.sdc.dtype, "standby": sc.sdc.standby,
+                                                           "capacity": sum(h["role"] == "turbine" for h in hosts.values())})
             self._popen(f"{host}.sdc", [self.python, "-m", "sdc_unit.service", "--config", str(cfg)],
                         host=self.net.get(host))
         cfg = self._write_json("owfcc_config.json", base)
@@ -199,7 +203,7 @@ class Run:
         if kind in ("visc_on", "visc_off", "set_params"):
             self._to_stdin("owfcc.owfcc", {"cmd": kind, "wt": event.wt, "params": getattr(event, "params", {})})
         elif kind in ("link_down", "link_up"):
-            self.net.configLinkStatus(event.a, event.b, "down" if kind == "link_down" else "up")
+            record["t_effective"] = round(self.set_link(event.a, event.b, kind == "link_up") - self.t0, 6)
         elif kind == "kill":
             name = "controller" if event.process == "controller" else f"{event.host}.{event.process}"
             proc = self.procs.get(name)
@@ -217,6 +221,25 @@ class Run:
                                     self._to_stdin, args=("plant", {"type": "fault", "on": False}))
             timer.daemon = True
             timer.start()
+
+    def set_link(self, a: str, b: str, up: bool) -> float:
+        """Set the link a–b up or down; returns the wall time at which its first end changed.
+
+        Switch ends live in the root namespace and are set with ``ip link`` directly (a veth whose
+        peer is down has no carrier, so the first end takes the link down at once); host ends go
+        through the host's shell."""
+        links = self.net.linksBetween(self.net.get(a), self.net.get(b))
+        if not links:
+            raise RunError(f"no link {a}-{b}")
+        state = "up" if up else "down"
+        t_first = None
+        for intf in (links[0].intf1, links[0].intf2):
+            if intf.node in self.net.switches:
+                subprocess.run(["ip", "link", "set", "dev", intf.name, state], check=False)
+            else:
+                intf.node.cmd(f"ip link set dev {intf.name} {state}")
+            t_first = t_first or time.time()
+        return t_first
 
     def play(self) -> None:
         """Play the timeline and show progress until the plant has run the scenario's duration."""
@@ -262,8 +285,9 @@ class Run:
             code = proc.poll()
             if code is not None and name != "plant":
                 self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
-        order = ["owfcc.owfcc", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \
-                [n for n in self.procs if n.endswith(".tcpdump")] + ["controller"]
+        # the SDN app first, so the end of the plant's packets is not mistaken for a failure
+        order = ["owfcc.owfcc", "controller", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \
+                [n for n in self.procs if n.endswith(".tcpdump")]
         for name in order:
             proc = self.procs.get(name)
             if proc is None or proc.poll() is not None:
@@ -274,6 +298,11 @@ class Run:
                 except OSError:
                     pass
             proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
+            if name == "controller":
+                try:
+                    proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
         deadline = time.time() + 5
         for proc in self.procs.values():
             try:

@@ -54,12 +54,19 @@ class SdcSpec(Strict):
     method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
     dtype: Literal["float64", "float32"] = "float64"
     backup: bool = Field(True, description="start the backup SDC on sdc2")
+    standby: Literal["latest", "track"] = Field(
+        "latest", description="backup warm state: track = step on every mirrored sample; latest = initialise at take-over")
 
 
 class SdnSpec(Strict):
     dr_hold_s: float = Field(0.040, gt=0, le=1.0, description="hold before DR_i is confirmed")
+    ak_timeout_s: float = Field(0.030, gt=0, le=1.0, description="no AK for this long counts as AK = 0")
+    dynamic_routing: bool = Field(True, description="act on DR_i (reroute); false reproduces the no-DR case")
+    reroute_on_port_status: bool = Field(False, description="also reroute at once on port-status link down")
     visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
+    sdc_dead_s: float = Field(0.040, gt=0, le=1.0, description="an SDC is dead after this long without heartbeat")
+    mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
 
 
 class CaptureSpec(Strict):

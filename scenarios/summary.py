@@ -42,6 +42,51 @@ def _wall_to_t(events: list[dict], t0: float | None, source: str) -> list[dict]:
     return out
 
 
+FAULT_TYPES = ("link_down", "kill")
+DETECT_TYPES = ("dr", "port_status", "sdc_failover")
+GAP_MATCH_S = 0.010  # a control-packet gap belongs to a fault if it starts at most this long after it
+
+
+def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0: float | None,
+               duration_s: float) -> list[dict]:
+    """One record per (fault, turbine whose control packets it interrupted).
+
+    ``t_fault`` is the timeline event, ``t_detect`` the SDN app's first reaction for that turbine
+    (DR, port status or SDC failover), ``t_restored`` the first control packet the turbine received
+    after the interruption; ``recovery_ms = t_restored − t_fault``. A turbine whose control packets
+    stopped and never came back has ``t_restored`` and ``recovery_ms`` None.
+    """
+    if t0 is None:
+        return []
+    out = []
+    for fault in faults:
+        t_f = fault.get("t_effective", fault["t"])
+        for wt, stats in sorted(plant_turbines.items()):
+            gaps = [(a - t0, b - t0) for a, b in stats.get("ctrl_gaps_wall", [])]
+            gap = next(((a, b) for a, b in gaps if a <= t_f + GAP_MATCH_S and b >= t_f), None)
+            last = stats.get("last_ctrl_wall")
+            last_t = last - t0 if last is not None else None
+            stopped = (gap is None and last_t is not None and t_f - GAP_MATCH_S <= last_t <= t_f + 0.1
+                       and last_t < duration_s - 0.05)
+            if gap is None and not stopped:
+                continue
+            reaction = next((e for e in events if e.get("type") in DETECT_TYPES and e.get("t", -1) >= t_f - 1e-3
+                             and (e.get("wt") == wt or wt in e.get("turbines", []))), None)
+            t_restored = gap[1] if gap else None
+            out.append({
+                "wt": wt,
+                "fault": {k: v for k, v in fault.items() if k not in ("source",)},
+                "cause": reaction["type"] if reaction else "none",
+                "t_fault": round(t_f, 6),
+                "t_loss": round(gap[0], 6) if gap else round(last_t, 6),
+                "t_detect": round(reaction["t"], 6) if reaction else None,
+                "t_restored": round(t_restored, 6) if t_restored is not None else None,
+                "recovery_ms": round((t_restored - t_f) * 1e3, 3) if t_restored is not None else None,
+                "detect_ms": round((reaction["t"] - t_f) * 1e3, 3) if reaction else None,
+            })
+    return out
+
+
 def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     out: Path = run.out
     sc = run.scenario
@@ -77,6 +122,9 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
             "first_ctrl_rx_t": stats.get("first_ctrl_rx_t"),
             "last_ctrl_rx_t": stats.get("last_ctrl_rx_t"),
             "ak_ones": stats.get("ak_ones", 0),
+            "ctrl_gaps": [[round(a - run.t0, 6), round(b - run.t0, 6)] for a, b in stats.get("ctrl_gaps_wall", [])]
+            if run.t0 else [],
+            "takeover_jump_pu": stats.get("takeover_jump_pu"),
             "one_way_delay_ms": {
                 "meas_to_sdc": next((r.get("meas_one_way_ms") for r in sdc_rows.values() if r.get("meas_one_way_ms")), None),
                 "ctrl_to_turbine": stats.get("ctrl_one_way_ms"),
@@ -98,7 +146,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,
-        "recoveries": [],
+        "recoveries": recoveries([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
+                                 plant.get("turbines", {}), events, run.t0, sc.duration_s),
         "processes_exited_early": dict(run.exited_early),
         "openflow": sdn.get("openflow", {}),
         "sdn_counters": sdn.get("counters", {}),

@@ -115,16 +115,25 @@ class DiscreteVisc:
         return np.broadcast_to(np.asarray(x, dtype=float), (self.n,)).astype(self.dtype)
 
     # ------------------------------------------------------------------ core
-    def _advance(self, m: dict, mask: np.ndarray) -> dict:
+    def _advance(self, m: dict, mask: np.ndarray, lim_pred=None, trial: bool = False):
+        """One sample. The limiter decides P_e (swing), the v_f hold and the AVR anti-windup of the
+        SAME sample: a trial pass without committing any state predicts the limiter state
+        (``lim_pred``), then the committed pass uses it (no one-sample lag, no algebraic loop)."""
+        if lim_pred is None:
+            lim_pred = self._advance(
+                m, np.zeros(self.n, dtype=bool), lim_pred=(self.mem["limited"] > 0, None, None), trial=True
+            )
         p, dt, c = self.p, self.dtype, self._c
         one = dt.type(1.0)
-        lim_prev = self.mem["limited"] > 0
+        lim_prev, ild_pred, ilq_pred = lim_pred
+        if ild_pred is None:
+            ild_pred, ilq_pred = self.mem["ild"], self.mem["ilq"]
         hold = lim_prev if p.freeze_vf_when_limited else None
         vfd = self.lpf_d.step(m["v_d"], mask, hold)
         vfq = self.lpf_q.step(m["v_q"], mask, hold)
         om_s = np.where(p.omega_s_measured, m["omega_meas"], one).astype(dt)
         # swing
-        p_lim = m["v_d"] * self.mem["ild"] + m["v_q"] * self.mem["ilq"]
+        p_lim = m["v_d"] * ild_pred + m["v_q"] * ilq_pred
         p_e = np.where(lim_prev, p_lim, m["p"])
         t_err = c(p.p_ref) - p_e
         delta, dev = self.swing.step(t_err, om_s - one, mask)
@@ -147,6 +156,8 @@ class DiscreteVisc:
         lf = dt.type(p.l_f)
         v_ref_d = m["v_d"] - lf * m["i_q"] + self.pi_d.step(ild - m["i_d"], mask)
         v_ref_q = m["v_q"] + lf * m["i_d"] + self.pi_q.step(ilq - m["i_q"], mask)
+        if trial:  # trial pass: report the predicted limiter state only
+            return (limited, ild, ilq)
         new_mem = dict(limited=limited.astype(dt), ild=ild, ilq=ilq, vmag=vmag, q=m["q"], vfr=vfr)
         for k, v in new_mem.items():
             self.mem[k] = np.where(mask, v, self.mem[k]).astype(dt)

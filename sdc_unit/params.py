@@ -84,7 +84,7 @@ class ViscParams:
     r_v: float = 0.0
     l_v: float = 0.2
     t_vf: float = 1.0 / 300.0
-    freeze_vf_when_limited: bool = True
+    freeze_vf_when_limited: bool = False
     i_max: float = 1.5
     avr_antiwindup: bool = True
     supp: bool = False

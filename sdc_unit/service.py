@@ -6,6 +6,13 @@ One process serves every turbine the SDN application assigns to it. It listens o
 for ``MEAS`` packets; each received measurement advances that turbine's controller by one step and
 is answered by one ``CTRL`` packet to the sender. Heartbeats go to the SDN application.
 
+Backup role (``role: backup``): measurements mirrored to it for turbines it does not serve are
+followed but never answered. ``standby: track`` advances a full controller instance on every
+mirrored sample (state identical to the primary's in exact arithmetic; doubles the SDC CPU);
+``standby: latest`` (default) keeps the sequence position and initialises the instance at take-over
+from the turbine's present operating point (bumpless by construction: the first output equals the
+converter voltage the turbine applies). On ``TAKEOVER`` the instance starts answering.
+
 Sequence-number policy (per turbine, on ``MEAS.seq``):
 
 * ``seq`` ≤ the last one used → duplicate or out of order: dropped, counted (``meas_stale``);
@@ -37,7 +44,8 @@ from sdvisc import wire
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
 
-HEARTBEAT_S = 0.02
+HEARTBEAT_S = 0.01
+STANDBY_MODES = ("latest", "track")
 
 
 @dataclass
@@ -52,7 +60,8 @@ class Instance:
     last_seq: int = -1
     ctrl_seq: int = 0
     counts: dict = field(default_factory=lambda: {"meas_rx": 0, "ctrl_tx": 0, "meas_lost": 0, "meas_stale": 0,
-                                                  "meas_inactive": 0, "ctrl_invalid": 0})
+                                                  "meas_inactive": 0, "meas_tracked": 0,
+                                                  "ctrl_invalid": 0})
     first_meas_rx_t: float | None = None
     meas_delays_ms: list = field(default_factory=list)
 
@@ -63,11 +72,15 @@ class SdcService:
     def __init__(self, cfg: dict, sock: socket.socket | None = None) -> None:
         self.cfg = cfg
         self.sdc_id = int(cfg.get("sdc_id", 1))
+        self.role = cfg.get("role", "primary")
+        self.standby = cfg.get("standby", "latest")
+        if self.standby not in STANDBY_MODES:
+            raise ValueError(f"standby must be one of {STANDBY_MODES}, got {self.standby!r}")
         self.header = bool(cfg.get("header", True))
         self.controller = (cfg["controller_vip"], wire.PORT_CONTROLLER)
         self.sock = sock or self._open_socket(cfg.get("bind_ip", "0.0.0.0"))
         self.instances: dict[int, Instance] = {}
-        self.bank = ControllerBank(capacity=int(cfg.get("capacity", 64)), step_s=float(cfg["step_s"]),
+        self.bank = ControllerBank(capacity=int(cfg.get("capacity", 64)) + 1, step_s=float(cfg["step_s"]),
                                    method=cfg.get("method", "tustin"), dtype=cfg.get("dtype", "float64"))
         self.rx_stats = wire.DecodeStats()
         self.hb_seq = 0
@@ -116,6 +129,7 @@ class SdcService:
         elif cmd == wire.Command.TAKEOVER:
             inst.active = True
             self.bank.take_over(inst.slot)
+            inst.counts["takeover_warm"] = int(self.bank.initialised[inst.slot])
         else:
             status = wire.Status.BAD_REQUEST
         self.events.append({"t_wall": now, "type": "sdc_command", "cmd": wire.Command(cmd).name,
@@ -147,7 +161,14 @@ class SdcService:
                 inst.counts["meas_stale"] += 1
                 continue
             if not inst.active:
-                inst.counts["meas_inactive"] += 1
+                if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
+                    inst.last_seq = msg["seq"]
+                    inst.counts["meas_tracked"] += 1
+                    if self.standby == "track":
+                        self.bank.track(np.array([inst.slot]),
+                                        {k: np.array([msg[k]]) for k in ControllerBank.MEAS_KEYS})
+                else:
+                    inst.counts["meas_inactive"] += 1
                 continue
             if inst.last_seq >= 0 and msg["seq"] > inst.last_seq + 1:
                 inst.counts["meas_lost"] += msg["seq"] - inst.last_seq - 1
@@ -179,7 +200,7 @@ class SdcService:
             values = {"wt": inst.wid, "seq": inst.ctrl_seq, "meas_seq": msg["seq"],
                       **{k: float(out[k][j]) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta",
                                                         "omega", "e_mag")},
-                      "flags": int(out["limited"][j]) | (2 if self.cfg.get("role") == "backup" else 0)}
+                      "flags": int(out["limited"][j]) | (2 if self.role == "backup" else 0)}
             try:
                 self.sock.sendto(wire.encode(wire.MsgType.CTRL, values, header=self._header(inst.ctrl_seq, now)),
                                  (addr[0], wire.PORT_TURBINE))
@@ -215,7 +236,7 @@ class SdcService:
     def summary(self) -> dict:
         return {
             "sdc_id": self.sdc_id,
-            "role": self.cfg.get("role", "primary"),
+            "role": self.role,
             "rx_wire": self.rx_stats.as_dict(),
             "heartbeats_tx": self.hb_seq,
             "unexpected_rx": self.unexpected_rx,
@@ -232,6 +253,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cfg = json.loads(Path(args.config).read_text())
     service = SdcService(cfg)
+    service.bank.warm_up()
     if cfg.get("realtime_priority", True):
         raise_priority()
 

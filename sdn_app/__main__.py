@@ -40,7 +40,13 @@ def main(argv: list[str] | None = None) -> int:
              project="os_ken")
     logging.basicConfig(level=getattr(logging, args.log_level),
                         format="%(asctime)s %(name)s %(levelname)s %(message)s")
-    signal.signal(signal.SIGTERM, lambda *_: sys.exit(0))
+    import sdn_app.app
+
+    def on_term(*_):
+        sdn_app.app.STOPPING = True
+        sys.exit(0)
+
+    signal.signal(signal.SIGTERM, on_term)
     AppManager.run_apps(["sdn_app.app", "os_ken.controller.ofp_handler"])
     return 0
 

@@ -24,7 +24,8 @@ from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 
 CONFIG_ENV = "SDVISC_SDN_CONFIG"
-TICK_S = 0.005
+STOPPING = False  # set by the launcher's SIGTERM handler: no more decisions while shutting down
+TICK_S = 0.002
 PUBLISH_S = 0.1
 
 
@@ -78,13 +79,24 @@ class SdviscApp(app_manager.OSKenApp):
         tmp.replace(self.state_dir / "sdn_state.json")
 
     def _timer_loop(self) -> None:
-        while True:
+        while not STOPPING:
             now = time.time()
             self._send(self.logic.tick(now))
             if now - self._last_publish >= PUBLISH_S:
                 self._last_publish = now
                 self._publish()
             hub.sleep(TICK_S)
+
+    def stop(self):
+        """Publish the final state and events before os-ken tears the app down."""
+        try:
+            self._flush_events()
+            self._publish()
+            if self._events_file:
+                self._events_file.close()
+                self._events_file = None
+        finally:
+            super().stop()
 
     # ------------------------------------------------------------------ OpenFlow events
     @set_ev_cls(ofp_event.EventOFPSwitchFeatures, CONFIG_DISPATCHER)

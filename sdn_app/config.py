@@ -56,6 +56,12 @@ class AppConfig(BaseModel):
     backup_sdc: str | None = "sdc2"
     visc_disabled: list[str] = Field(default_factory=list, description="turbines whose ViSC is not enabled (T2 x/0)")
     dr_hold_s: float = Field(0.040, gt=0, description="hold before DR_i is confirmed, s (paper: 40 ms)")
+    ak_timeout_s: float = Field(0.030, gt=0, description="no AK for this long counts as AK = 0, s")
+    dynamic_routing: bool = Field(True, description="act on DR_i by rerouting (false: detect and log only)")
+    reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
+    failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
+    sdc_dead_s: float = Field(0.040, gt=0, description="an SDC is dead after this long without a heartbeat, s")
+    mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
     state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
     header: bool = Field(True, description="GTNET packets carry the VILLAS 3-word header")
 

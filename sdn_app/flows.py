@@ -21,12 +21,29 @@ COOKIE_BASE = 0x5D000000  # flows of a turbine's path carry COOKIE_BASE + turbin
 
 
 @dataclass(frozen=True)
+class Output:
+    port: int  # TO_CONTROLLER for the controller
+
+
+@dataclass(frozen=True)
+class SetField:
+    name: str  # an OpenFlow 1.3 OXM field name, e.g. "ipv4_dst", "eth_dst"
+    value: object
+
+
+@dataclass(frozen=True)
 class FlowAdd:
+    """Add (or overwrite) a flow; ``actions`` empty means drop."""
+
     dpid: int
     priority: int
     match: dict
-    out_port: int | None  # None: drop; -1: to the controller
+    actions: tuple = ()
     cookie: int = 0
+
+    @property
+    def out_ports(self) -> list[int]:
+        return [a.port for a in self.actions if isinstance(a, Output)]
 
 
 @dataclass(frozen=True)
@@ -49,10 +66,11 @@ def base_flows(dpid: int, controller_vip: str) -> list[FlowAdd]:
     """What every OpenFlow switch gets on connect: table miss and the virtual controller IP to
     the controller (so unrequested traffic is seen, counted and dropped, never forwarded), IPv6
     noise dropped."""
+    to_controller = (Output(TO_CONTROLLER),)
     return [
-        FlowAdd(dpid, PRIORITY_TABLE_MISS, {}, TO_CONTROLLER),
-        FlowAdd(dpid, PRIORITY_DROP_NOISE, {"eth_type": ETH_TYPE_IPV6}, None),
-        FlowAdd(dpid, PRIORITY_TO_CONTROLLER, {"eth_type": ETH_TYPE_IPV4, "ipv4_dst": controller_vip}, TO_CONTROLLER),
+        FlowAdd(dpid, PRIORITY_TABLE_MISS, {}, to_controller),
+        FlowAdd(dpid, PRIORITY_DROP_NOISE, {"eth_type": ETH_TYPE_IPV6}, ()),
+        FlowAdd(dpid, PRIORITY_TO_CONTROLLER, {"eth_type": ETH_TYPE_IPV4, "ipv4_dst": controller_vip}, to_controller),
     ]
 
 
@@ -66,8 +84,51 @@ def path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int], a_ip: st
     flows = []
     for switch, toward_a, toward_b in hops:
         dpid = dpids[switch]
-        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(a_ip, b_ip), toward_b, cookie))
-        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(b_ip, a_ip), toward_a, cookie))
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(a_ip, b_ip), (Output(toward_b),), cookie))
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(b_ip, a_ip), (Output(toward_a),), cookie))
+    return flows
+
+
+def substitute_path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int], sub: dict, wt_ip: str,
+                          addressed: dict, cookie: int) -> list[FlowAdd]:
+    """Flows that let a turbine keep addressing ``addressed`` (ip, mac) while ``sub`` (ip, mac) serves it.
+
+    ``hops`` run from the substitute's side (index 0, next to ``sub``) to the turbine. Toward the
+    substitute, packets to the addressed IP are forwarded and, on the last switch, rewritten to the
+    substitute; the substitute's answers are rewritten on its switch to come from the addressed
+    address, then forwarded like the addressed SDC's own packets.
+    """
+    flows = []
+    for i, (switch, toward_sub, toward_wt) in enumerate(hops):
+        dpid = dpids[switch]
+        up = (Output(toward_sub),)
+        down_match = udp_match(addressed["ip"], wt_ip)
+        if i == 0:
+            up = (SetField("eth_dst", sub["mac"]), SetField("ipv4_dst", sub["ip"]), Output(toward_sub))
+            down_match = udp_match(sub["ip"], wt_ip)
+            down = (SetField("eth_src", addressed["mac"]), SetField("ipv4_src", addressed["ip"]), Output(toward_wt))
+        else:
+            down = (Output(toward_wt),)
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(wt_ip, addressed["ip"]), up, cookie))
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, down_match, down, cookie))
+    return flows
+
+
+def mirror_flows(hops_to_mirror: list[tuple[str, int, int]], dpids: dict[str, int], primary_flow: FlowAdd,
+                 mirror: dict, wt_ip: str, cookie: int) -> list[FlowAdd]:
+    """Copy a turbine's packets to a warm standby ``mirror`` (ip, mac).
+
+    ``primary_flow`` is the upstream flow on the switch where the copy leaves (it keeps its own
+    output and gains a rewritten copy toward the mirror); ``hops_to_mirror`` run from that switch
+    to the mirror host.
+    """
+    first_switch, _, first_out = hops_to_mirror[0]
+    copy = (SetField("eth_dst", mirror["mac"]), SetField("ipv4_dst", mirror["ip"]), Output(first_out))
+    flows = [FlowAdd(primary_flow.dpid, primary_flow.priority, primary_flow.match, primary_flow.actions + copy,
+                     cookie)]
+    for switch, _, toward_mirror in hops_to_mirror[1:]:
+        flows.append(FlowAdd(dpids[switch], PRIORITY_PATH, udp_match(wt_ip, mirror["ip"]), (Output(toward_mirror),),
+                             cookie))
     return flows
 
 

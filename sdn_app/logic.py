@@ -4,10 +4,19 @@ Nothing here touches a socket or a switch and nothing reads the wall clock: ever
 takes ``now`` (seconds) and returns a list of :mod:`sdn_app.flows` actions. The os-ken shim in
 :mod:`sdn_app.app` only translates.
 
-Implemented here: T1–T3 upkeep, the ``ViSC_WT_i`` request (look T1 up, check T2 and T3, choose a
-path, install flows both ways, command SDC and turbine, answer the OWFCC), ``visc_off``, parameter
-changes forwarded to the SDC, AK bookkeeping, port status → link state, and counting of every
-packet the app saw and why it dropped it.
+What it does (paper Section III, plus the testbed's extensions):
+
+* T1–T3 upkeep (:mod:`sdn_app.tables`) from the topology, requests, port status and AK;
+* ``ViSC_WT_i``: look T1 up, check T2 (enabled) and T3 (a link exists), choose a path
+  (:mod:`sdn_app.paths`), install flows both ways, command SDC and turbine, answer the OWFCC;
+  ``visc_off`` and parameter changes likewise; refusals are answered with a reason;
+* ``DR_i = ViSC_WT_i ∧ ¬AK_i`` after the hold (:mod:`sdn_app.dr`): reroute around the failure
+  (known down links, else a link-disjoint alternative), optionally also at once on port status;
+* SDC failover: a primary without heartbeat for ``sdc_dead_s`` is dead; its turbines' flows are
+  redirected to the backup with address rewriting (the turbine keeps addressing the same SDC) and
+  the backup, which received mirrored measurements, is told to take over;
+* access control: requests only from the OWFCC, AK only from T1-registered (IP, MAC) sources;
+  everything dropped is counted by reason.
 """
 
 from __future__ import annotations
@@ -19,14 +28,18 @@ from os_ken.lib.packet import ethernet, ipv4, packet, udp
 
 from sdn_app import flows as fl
 from sdn_app.config import AppConfig
+from sdn_app.dr import DrMonitor
 from sdn_app.paths import build_graph, choose_path, hops, link_key, path_links
 from sdn_app.tables import Tables, TurbineAddress
 from sdvisc import wire
 
+ETH_TYPE_LEARN = 0x88B5  # IEEE local experimental ethertype: frames that only teach L2 switches
+PARAM_KEYS = ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")
+
 
 @dataclass
 class ActivePath:
-    """A turbine's installed path to its SDC."""
+    """A turbine's installed path to the SDC serving it."""
 
     wt: str
     sdc: str
@@ -34,16 +47,7 @@ class ActivePath:
     installed_at: float
     cookie: int
     dpids: list[int] = field(default_factory=list)
-
-
-@dataclass
-class AckState:
-    """Last AK seen from a turbine."""
-
-    ak: int = 0
-    t_last: float = float("-inf")
-    ctrl_rx: int = 0
-    seq: int = -1
+    reroutes: int = 0
 
 
 class Controller:
@@ -62,8 +66,10 @@ class Controller:
             self.port_links[(link.a, link.a_port)] = key
             self.port_links[(link.b, link.b_port)] = key
         self.paths: dict[str, ActivePath] = {}
-        self.acks: dict[str, AckState] = {}
+        self.dr = DrMonitor(config.dr_hold_s, config.ak_timeout_s)
         self.active_sdc = config.primary_sdc
+        self.sdc_heartbeat: dict[str, float] = {}
+        self.sdc_dead: set[str] = set()
         self.connected: set[int] = set()
         self.counters: Counter = Counter()
         self.events: list[dict] = []
@@ -91,8 +97,12 @@ class Controller:
     def _host(self, name: str):
         return self.config.topology.hosts[name]
 
-    def _path_to(self, src: str, dst: str) -> list[str] | None:
-        return choose_path(self.graph, src, dst, down=self.down_links)
+    def _addr(self, name: str) -> dict:
+        h = self._host(name)
+        return {"ip": h.ip, "mac": h.mac}
+
+    def _path_to(self, src: str, dst: str, avoid=frozenset()) -> list[str] | None:
+        return choose_path(self.graph, src, dst, down=self.down_links, avoid=avoid)
 
     def _refresh_link_ok(self, wt: str) -> None:
         ok = self._path_to(self.active_sdc, wt) is not None
@@ -125,6 +135,23 @@ class Controller:
         self.counters["packet_out"] += 1
         return [fl.PacketOut(egress[0], egress[1], bytes(pkt.data))]
 
+    def _learn_frames(self, path: list[str], src_host: str) -> list:
+        """Teach non-OpenFlow switches on ``path`` where ``src_host`` now is (frames with its MAC
+        sent from the OpenFlow switch in front of them), so an L2 switch with two uplinks follows
+        a reroute at once instead of after MAC ageing."""
+        actions = []
+        src_mac = self._host(src_host).mac
+        dst_mac = self._host(path[-1]).mac if path[-1] in self.config.topology.hosts else "ff:ff:ff:ff:ff:ff"
+        for a, b in zip(path, path[1:]):
+            if a in self.dpids and b in self.config.topology.switches and b not in self.dpids:
+                pkt = packet.Packet()
+                pkt.add_protocol(ethernet.ethernet(dst=dst_mac, src=src_mac, ethertype=ETH_TYPE_LEARN))
+                pkt.add_protocol(b"sdvisc-learn".ljust(46, b"\0"))
+                pkt.serialize()
+                self.counters["packet_out"] += 1
+                actions.append(fl.PacketOut(self.dpids[a], self.graph.edges[a, b]["ports"][a], bytes(pkt.data)))
+        return actions
+
     def _header(self, now: float) -> wire.Header | None:
         if not self.config.header:
             return None
@@ -137,13 +164,64 @@ class Controller:
                                                    "cmd": int(cmd), "detail": detail}, header=self._header(now))
         return self._packet_to(self.config.owfcc, wire.PORT_OWFCC, payload)
 
-    def _command(self, now: float, host: str, port: int, cmd: wire.Command, wid: int, params: dict | None = None) -> list:
+    def _command(self, now: float, host: str, port: int, cmd: wire.Command, wid: int, params: dict | None = None,
+                 sdc: str | None = None) -> list:
         values = {"req_id": self.request_seq + 1, "cmd": int(cmd), "wt": wid,
-                  "sdc_ip": wire.ip_to_i32(self._host(self.active_sdc).ip),
+                  "sdc_ip": wire.ip_to_i32(self._host(sdc or self.config.primary_sdc).ip),
                   "mask": 0, "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0}
         if params:
             values.update(params)
         return self._packet_to(host, port, wire.encode(wire.MsgType.REQUEST, values, header=self._header(now)))
+
+    # ------------------------------------------------------------------ flows of a path
+    def _flows_for(self, active: ActivePath) -> list:
+        wt_ip = self.tables.t1[active.wt].ip
+        if active.sdc == self.config.primary_sdc:
+            flows = fl.path_flows(hops(self.graph, active.path), self.dpids, self._host(active.sdc).ip, wt_ip,
+                                  active.cookie)
+            return flows + self._mirror_flows(active, flows)
+        # served by a substitute SDC while addressing the primary's address
+        return fl.substitute_path_flows(hops(self.graph, active.path), self.dpids, self._addr(active.sdc), wt_ip,
+                                        self._addr(self.config.primary_sdc), active.cookie)
+
+    def _mirror_flows(self, active: ActivePath, flows: list) -> list:
+        backup = self.config.backup_sdc
+        if not (backup and self.config.failover and self.config.mirror_to_backup) or backup in self.sdc_dead:
+            return []
+        primary_ip = self._host(active.sdc).ip
+        first_switch = active.path[1]
+        to_backup = self._path_to(first_switch, backup)
+        if to_backup is None or first_switch not in self.dpids:
+            return []
+        upstream = next((f for f in flows if f.dpid == self.dpids[first_switch] and f.match["ipv4_dst"] == primary_ip),
+                        None)
+        if upstream is None:
+            return []
+        hop_list = [(to_backup[0], 0, self.graph.edges[to_backup[0], to_backup[1]]["ports"][to_backup[0]])]
+        hop_list += hops(self.graph, to_backup)
+        mirrored = fl.mirror_flows(hop_list, self.dpids, upstream, self._addr(backup), self.tables.t1[active.wt].ip,
+                                   active.cookie)
+        # the mirror flow replaces the plain upstream flow on the first switch (same match, same priority)
+        flows.remove(upstream)
+        return mirrored
+
+    def _install(self, name: str, sdc: str, path: list[str], wid: int, now: float) -> list:
+        active = ActivePath(name, sdc, path, now, fl.turbine_cookie(wid))
+        flows = self._flows_for(active)
+        active.dpids = sorted({f.dpid for f in flows})
+        old = self.paths.get(name)
+        if old is not None:
+            active.reroutes = old.reroutes + 1
+        self.paths[name] = active
+        self.counters["flow_mods"] += len(flows)
+        return flows + self._learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
+
+    def _remove_path(self, name: str) -> list:
+        active = self.paths.pop(name, None)
+        if active is None:
+            return []
+        self.counters["flow_deletes"] += len(active.dpids)
+        return [fl.FlowDelete(dpid, active.cookie) for dpid in active.dpids]
 
     # ------------------------------------------------------------------ switch events
     def switch_up(self, dpid: int, now: float) -> list:
@@ -156,7 +234,7 @@ class Controller:
         return actions
 
     def port_status(self, dpid: int, port: int, up: bool, now: float) -> list:
-        """A port changed state: update the link set and T3's second digit."""
+        """A port changed state: update the link set, T3's second digit, and optionally reroute."""
         switch = self.switch_by_dpid.get(dpid)
         key = self.port_links.get((switch, port)) if switch else None
         if key is None:
@@ -171,11 +249,82 @@ class Controller:
         self._event(now, "link_up" if up else "link_down", link=sorted(key), switch=switch, port=port)
         for name in self.tables.t1:
             self._refresh_link_ok(name)
-        return []
+        actions: list = []
+        if not up and self.config.reroute_on_port_status:
+            for name, active in list(self.paths.items()):
+                if key in path_links(active.path):
+                    actions += self._reroute(name, "port_status", now, t_loss=None)
+        return actions
 
     def tick(self, now: float) -> list:
-        """Timer entry point (DR hold timers hook here); nothing periodic is sent to switches."""
-        return []
+        """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state."""
+        actions = self._check_sdcs(now)
+        in_visc = [n for n, p in self.paths.items() if p.sdc not in self.sdc_dead]
+        for name, t_loss in self.dr.due(in_visc, now):
+            if self.config.dynamic_routing:
+                actions += self._reroute(name, "dr", now, t_loss=t_loss)
+            else:
+                self.tables.set_comm(name, comm_on=False)
+                self._event(now, "dr_not_acted", wt=name, t_loss=t_loss, reason="dynamic routing off")
+        return actions
+
+    # ------------------------------------------------------------------ rerouting
+    def _reroute(self, name: str, cause: str, now: float, t_loss: float | None) -> list:
+        active = self.paths[name]
+        current = set(path_links(active.path))
+        known_bad = current & self.down_links
+        host_links = {link_key(active.path[0], active.path[1]), link_key(active.path[-2], active.path[-1])}
+        avoid = frozenset() if known_bad else frozenset(current - host_links)
+        new_path = self._path_to(active.sdc, name, avoid=avoid)
+        if new_path is None and avoid:
+            candidate = self._path_to(active.sdc, name)
+            new_path = candidate if candidate != active.path else None
+        self.dr.start(name, now)
+        if new_path is None:
+            self.tables.set_comm(name, link_ok=False)
+            self._event(now, "reroute_failed", wt=name, cause=cause, t_loss=t_loss, path=active.path)
+            return []
+        wid = wire.turbine_id(self.tables.t1[name].cluster, self.tables.t1[name].number)
+        actions = self._remove_path(name) + self._install(name, active.sdc, new_path, wid, now)
+        self.tables.set_comm(name, link_ok=True)
+        self.counters[f"reroute_{cause}"] += 1
+        self._event(now, cause, wt=name, t_loss=t_loss, t_detect=now, old_path=active.path, new_path=new_path,
+                    avoided="known down links" if known_bad else "current path (link-disjoint)")
+        return actions
+
+    # ------------------------------------------------------------------ SDC failover
+    def _check_sdcs(self, now: float) -> list:
+        actions: list = []
+        for sdc, t_last in list(self.sdc_heartbeat.items()):
+            if sdc in self.sdc_dead or now - t_last <= self.config.sdc_dead_s:
+                continue
+            self.sdc_dead.add(sdc)
+            served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
+            self._event(now, "sdc_dead", sdc=sdc, t_last_heartbeat=t_last, turbines=served)
+            if sdc == self.active_sdc:
+                actions += self._failover(sdc, served, now, t_last)
+        return actions
+
+    def _failover(self, dead: str, served: list[str], now: float, t_last: float) -> list:
+        backup = self.config.backup_sdc
+        if not self.config.failover or backup is None or backup in self.sdc_dead or backup not in self.sdc_heartbeat:
+            self._event(now, "failover_unavailable", sdc=dead, turbines=served,
+                        reason="failover off" if not self.config.failover else "no live backup SDC")
+            return []
+        self.active_sdc = backup
+        actions: list = []
+        for name in served:
+            path = self._path_to(backup, name)
+            if path is None:
+                self._event(now, "failover_no_path", wt=name, sdc=backup)
+                continue
+            wid = wire.turbine_id(self.tables.t1[name].cluster, self.tables.t1[name].number)
+            actions += self._remove_path(name) + self._install(name, backup, path, wid, now)
+            actions += self._command(now, backup, wire.PORT_SDC, wire.Command.TAKEOVER, wid, sdc=backup)
+            self.dr.start(name, now)
+        self.counters["sdc_failovers"] += 1
+        self._event(now, "sdc_failover", sdc=dead, backup=backup, turbines=served, t_loss=t_last, t_detect=now)
+        return actions
 
     # ------------------------------------------------------------------ packets
     def packet_in(self, dpid: int, in_port: int, data: bytes, now: float) -> list:
@@ -220,8 +369,7 @@ class Controller:
         self.counters["requests"] += 1
         cmd, wid, req_id = msg["cmd"], msg["wt"], msg["req_id"]
         name = wire.turbine_name(wid)
-        row = self.tables.lookup(name)
-        if row is None:
+        if self.tables.lookup(name) is None:
             self._event(now, "request_refused", wt=name, cmd=wire.Command(cmd).name, reason="unknown turbine")
             return self._reply(now, req_id, wire.Status.UNKNOWN_TURBINE, wid, cmd)
         if cmd == wire.Command.VISC_ON:
@@ -231,16 +379,11 @@ class Controller:
         if cmd == wire.Command.SET_PARAMS:
             if not self.tables.in_visc(name):
                 return self._reply(now, req_id, wire.Status.REFUSED, wid, cmd, detail=1)
-            params = {k: msg[k] for k in ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")}
+            params = {k: msg[k] for k in PARAM_KEYS}
             self._event(now, "set_params", wt=name, **params)
-            return (self._command(now, self.active_sdc, wire.PORT_SDC, wire.Command.SET_PARAMS, wid, params)
+            return (self._command(now, self.paths[name].sdc, wire.PORT_SDC, wire.Command.SET_PARAMS, wid, params)
                     + self._reply(now, req_id, wire.Status.OK, wid, cmd))
         return self._reply(now, req_id, wire.Status.BAD_REQUEST, wid, cmd)
-
-    def _flows_for(self, active: ActivePath) -> list:
-        sdc_ip = self._host(active.sdc).ip
-        wt_ip = self.tables.t1[active.wt].ip
-        return fl.path_flows(hops(self.graph, active.path), self.dpids, sdc_ip, wt_ip, active.cookie)
 
     def _visc_on(self, msg: wire.Message, name: str, now: float) -> list:
         wid, req_id, cmd = msg["wt"], msg["req_id"], msg["cmd"]
@@ -248,43 +391,32 @@ class Controller:
             self._event(now, "request_refused", wt=name, cmd="VISC_ON", reason="ViSC not enabled (T2 x/0)")
             return self._reply(now, req_id, wire.Status.NOT_ENABLED, wid, cmd)
         self._refresh_link_ok(name)
-        path = self._path_to(self.active_sdc, name)
+        sdc = self.active_sdc
+        path = self._path_to(sdc, name)
         if path is None or not self.tables.comm(name).second:
             self._event(now, "request_refused", wt=name, cmd="VISC_ON", reason="no path (T3 x/0)")
             return self._reply(now, req_id, wire.Status.NO_PATH, wid, cmd)
-        actions: list = []
-        if name in self.paths:  # already on: re-install (idempotent request)
-            actions += self._remove_path(name)
-        active = ActivePath(name, self.active_sdc, path, now, fl.turbine_cookie(wid))
-        flows = self._flows_for(active)
-        active.dpids = sorted({f.dpid for f in flows})
-        self.paths[name] = active
+        actions: list = self._remove_path(name)  # an idempotent re-request re-installs
+        actions += self._install(name, sdc, path, wid, now)
         self.tables.set_mode(name, True)
         self.tables.set_comm(name, comm_on=True, link_ok=True)
-        self.acks.setdefault(name, AckState())
-        self.counters["flow_mods"] += len(flows)
-        params = {k: msg[k] for k in ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")}
-        self._event(now, "visc_on", wt=name, sdc=self.active_sdc, path=path, flows=len(flows))
-        actions += flows
-        actions += self._command(now, self.active_sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params)
+        self.dr.start(name, now)
+        params = {k: msg[k] for k in PARAM_KEYS}
+        self._event(now, "visc_on", wt=name, sdc=sdc, path=path, flows=self.counters["flow_mods"])
+        actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params)
         actions += self._command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_START, wid)
         actions += self._reply(now, req_id, wire.Status.OK, wid, cmd)
         return actions
-
-    def _remove_path(self, name: str) -> list:
-        active = self.paths.pop(name, None)
-        if active is None:
-            return []
-        self.counters["flow_deletes"] += len(active.dpids)
-        return [fl.FlowDelete(dpid, active.cookie) for dpid in active.dpids]
 
     def _visc_off(self, msg: wire.Message, name: str, now: float) -> list:
         wid, req_id, cmd = msg["wt"], msg["req_id"], msg["cmd"]
         if not self.tables.in_visc(name):
             return self._reply(now, req_id, wire.Status.OK, wid, cmd, detail=1)
+        sdc = self.paths[name].sdc if name in self.paths else self.active_sdc
         actions = self._command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_STOP, wid)
-        actions += self._command(now, self.active_sdc, wire.PORT_SDC, wire.Command.STOP_INSTANCE, wid)
+        actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.STOP_INSTANCE, wid)
         actions += self._remove_path(name)
+        self.dr.stop(name)
         self.tables.set_mode(name, False)
         self.tables.set_comm(name, comm_on=False)
         self._event(now, "visc_off", wt=name)
@@ -296,14 +428,15 @@ class Controller:
         if row is None or row.ip != src_ip or row.mac != src_mac:
             self.counters["drop_ak_unregistered"] += 1
             return []
-        state = self.acks.setdefault(name, AckState())
-        if msg["seq"] <= state.seq:
+        if name not in self.paths:
+            self.counters["ak_not_in_visc"] += 1
+            return []
+        fresh = self.dr.on_ak(name, msg["seq"], msg["ak"], msg["ctrl_rx"], msg["ctrl_age_ms"] / 1e3, now)
+        if not fresh:
             self.counters["ak_duplicate"] += 1
             return []
         self.counters["ak_rx"] += 1
-        state.seq, state.ak, state.t_last, state.ctrl_rx = msg["seq"], msg["ak"], now, msg["ctrl_rx"]
-        if name in self.paths:
-            self.tables.set_comm(name, comm_on=bool(msg["ak"]))
+        self.tables.set_comm(name, comm_on=bool(msg["ak"]))
         return []
 
     def _on_reply(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
@@ -313,7 +446,15 @@ class Controller:
         return []
 
     def _on_heartbeat(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
+        sdc = next((n for n, h in self.config.topology.hosts.items() if h.ip == src_ip and h.mac == src_mac), None)
+        if sdc is None or sdc not in (self.config.primary_sdc, self.config.backup_sdc):
+            self.counters["drop_heartbeat_unknown"] += 1
+            return []
         self.counters["heartbeats"] += 1
+        self.sdc_heartbeat[sdc] = now
+        if sdc in self.sdc_dead:
+            self.sdc_dead.discard(sdc)
+            self._event(now, "sdc_alive", sdc=sdc)
         return []
 
     # ------------------------------------------------------------------ introspection
@@ -321,12 +462,12 @@ class Controller:
         """Tables, active paths, link state and counters as JSON-ready data."""
         return {
             **self.tables.as_dict(),
-            "paths": {n: {"sdc": p.sdc, "path": p.path, "installed_at": p.installed_at} for n, p in self.paths.items()},
+            "paths": {n: {"sdc": p.sdc, "path": p.path, "installed_at": p.installed_at, "reroutes": p.reroutes}
+                      for n, p in self.paths.items()},
             "down_links": sorted(sorted(k) for k in self.down_links),
             "active_sdc": self.active_sdc,
+            "dead_sdcs": sorted(self.sdc_dead),
             "connected": sorted(self.connected),
-            "acks": {n: {"ak": a.ak, "ctrl_rx": a.ctrl_rx} for n, a in self.acks.items()},
+            "acks": {n: {"ak": t.ak, "ctrl_rx": t.ctrl_rx, "dr_confirmed": t.confirmed}
+                     for n, t in self.dr.tracks.items()},
         }
-
-
-__all__ = ["Controller", "path_links"]

@@ -5,19 +5,24 @@ from __future__ import annotations
 from sdn_app import flows as fl
 
 
+def _action(a, ofp, parser):
+    if isinstance(a, fl.Output):
+        if a.port == fl.TO_CONTROLLER:
+            return parser.OFPActionOutput(ofp.OFPP_CONTROLLER, ofp.OFPCML_NO_BUFFER)
+        return parser.OFPActionOutput(a.port, 0)
+    if isinstance(a, fl.SetField):
+        return parser.OFPActionSetField(**{a.name: a.value})
+    raise TypeError(f"unknown flow action {a!r}")
+
+
 def to_messages(action, datapath) -> list:
     """OpenFlow messages for one action, built with ``datapath``'s parser (tests may pass a stub
     object with ``ofproto``/``ofproto_parser`` attributes)."""
     ofp = datapath.ofproto
     parser = datapath.ofproto_parser
     if isinstance(action, fl.FlowAdd):
-        if action.out_port is None:
-            instructions = []
-        else:
-            port = ofp.OFPP_CONTROLLER if action.out_port == fl.TO_CONTROLLER else action.out_port
-            max_len = ofp.OFPCML_NO_BUFFER if action.out_port == fl.TO_CONTROLLER else 0
-            out = [parser.OFPActionOutput(port, max_len)]
-            instructions = [parser.OFPInstructionActions(ofp.OFPIT_APPLY_ACTIONS, out)]
+        acts = [_action(a, ofp, parser) for a in action.actions]
+        instructions = [parser.OFPInstructionActions(ofp.OFPIT_APPLY_ACTIONS, acts)] if acts else []
         return [parser.OFPFlowMod(
             datapath=datapath, cookie=action.cookie, priority=action.priority,
             match=parser.OFPMatch(**action.match), instructions=instructions,

@@ -59,7 +59,8 @@ def _print_result(summary: dict, out: Path) -> None:
         print(f"  {name}: meas_tx={p['meas_tx']} meas_rx_sdc={p['meas_rx_sdc']} ctrl_tx_sdc={p['ctrl_tx_sdc']} "
               f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  one-way p50={d.get('p50', float('nan')):.2f} ms")
     for r in summary["recoveries"]:
-        print(f"  recovery {r['wt']} ({r['cause']}): {r['recovery_ms']:.1f} ms")
+        took = f"{r['recovery_ms']:.1f} ms" if r['recovery_ms'] is not None else "not restored"
+        print(f"  recovery {r['wt']} after {r['fault']['type']} ({r['cause']}): {took}")
     for name, code in summary.get("processes_exited_early", {}).items():
         print(f"sdvisc: warning: {name} exited early with code {code}; see {out}/{name}.log")
     print(f"sdvisc: results in {out}/summary.json, events.jsonl, timeseries.csv")

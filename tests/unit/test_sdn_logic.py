@@ -40,6 +40,10 @@ def request(cmd: wire.Command, wt: str = "wt1_1", req_id: int = 7, **params) -> 
     return wire.encode(wire.MsgType.REQUEST, values, header=wire.Header(req_id, 0, 0))
 
 
+def is_learn(action: fl.PacketOut) -> bool:
+    return packet.Packet(action.data).get_protocol(ipv4.ipv4) is None
+
+
 def decode_out(action: fl.PacketOut) -> tuple[str, int, wire.Message]:
     pkt = packet.Packet(action.data)
     ip, u = pkt.get_protocol(ipv4.ipv4), pkt.get_protocol(udp.udp)
@@ -48,7 +52,8 @@ def decode_out(action: fl.PacketOut) -> tuple[str, int, wire.Message]:
 
 @pytest.fixture
 def ctl():
-    return Controller(make_config(), now=0.0)
+    """No backup SDC: the plain paper case (no mirroring)."""
+    return Controller(make_config(backup_sdc=None), now=0.0)
 
 
 def owfcc(ctl):
@@ -100,21 +105,25 @@ def test_path_avoids_down_links():
 # ---------------------------------------------------------------- requests
 def test_switch_up_installs_table_miss_and_controller_rule(ctl):
     actions = ctl.switch_up(1, now=0.1)
-    assert any(a.priority == fl.PRIORITY_TABLE_MISS and a.out_port == fl.TO_CONTROLLER for a in actions)
+    assert any(a.priority == fl.PRIORITY_TABLE_MISS and a.out_ports == [fl.TO_CONTROLLER] for a in actions)
     assert not any(a.priority == fl.PRIORITY_PATH for a in actions)  # no path before a request
 
 
 def test_visc_on_installs_both_directions_and_commands_sdc_turbine_owfcc(ctl):
     actions = ctl.packet_in(1, 4, frame(owfcc(ctl), request(wire.Command.VISC_ON, h=3.0, mask=1)), now=1.0)
     adds = [a for a in actions if isinstance(a, fl.FlowAdd)]
-    outs = [decode_out(a) for a in actions if isinstance(a, fl.PacketOut)]
+    outs = [decode_out(a) for a in actions if isinstance(a, fl.PacketOut) and not is_learn(a)]
+    learn = [a for a in actions if isinstance(a, fl.PacketOut) and is_learn(a)]
+    # the L2 switch learns at once that sdc1 is behind s3 (the OpenFlow switch in front of it)
+    assert [(a.dpid, a.port) for a in learn] == [(3, ctl.graph.edges["s3", "l2"]["ports"]["s3"])]
+    assert packet.Packet(learn[0].data).get_protocol(ethernet.ethernet).src == ctl.config.topology.hosts["sdc1"].mac
     # path sdc1 - s1 - s3 - l2 - wt1_1: two OpenFlow switches, two directions each
     assert len(adds) == 4
     assert {a.dpid for a in adds} == {1, 3}
     matches = {(a.match["ipv4_src"], a.match["ipv4_dst"]) for a in adds}
     assert matches == {("10.0.0.21", "10.0.1.1"), ("10.0.1.1", "10.0.0.21")}
     s1_to_wt = next(a for a in adds if a.dpid == 1 and a.match["ipv4_dst"] == "10.0.1.1")
-    assert s1_to_wt.out_port == ctl.graph.edges["s1", "s3"]["ports"]["s1"]
+    assert s1_to_wt.out_ports == [ctl.graph.edges["s1", "s3"]["ports"]["s1"]]
     kinds = {(dst, port, m.type, m["status"] if m.type == wire.MsgType.REPLY else m["cmd"]) for dst, port, m in outs}
     assert ("10.0.0.21", wire.PORT_SDC, wire.MsgType.REQUEST, wire.Command.START_INSTANCE) in kinds
     assert ("10.0.1.1", wire.PORT_TURBINE, wire.MsgType.REQUEST, wire.Command.STREAM_START) in kinds
@@ -132,7 +141,7 @@ def test_refusals_are_answered_and_logged(config, wt, status):
     ctl = Controller(make_config(**config), now=0.0)
     actions = ctl.packet_in(1, 4, frame(owfcc(ctl), request(wire.Command.VISC_ON, wt=wt)), now=1.0)
     assert not [a for a in actions if isinstance(a, fl.FlowAdd)]
-    (reply,) = [decode_out(a)[2] for a in actions if isinstance(a, fl.PacketOut)]
+    (reply,) = [decode_out(a)[2] for a in actions if isinstance(a, fl.PacketOut) and not is_learn(a)]
     assert reply["status"] == status
     assert any(e["type"] == "request_refused" for e in ctl.take_events())
 
@@ -143,7 +152,7 @@ def test_no_path_refusal_after_links_fail(ctl):
         ctl.port_status(1, port, up=False, now=0.5)
     assert str(ctl.tables.t3["wt1_1"]) == "0/0"
     actions = ctl.packet_in(1, 4, frame(owfcc(ctl), request(wire.Command.VISC_ON)), now=1.0)
-    (reply,) = [decode_out(a)[2] for a in actions if isinstance(a, fl.PacketOut)]
+    (reply,) = [decode_out(a)[2] for a in actions if isinstance(a, fl.PacketOut) and not is_learn(a)]
     assert reply["status"] == wire.Status.NO_PATH
 
 
@@ -195,5 +204,5 @@ def test_actions_become_serialisable_openflow13_messages(ctl):
             assert msg.buf[0] == ofproto_v1_3.OFP_VERSION
             kinds.add(type(msg).__name__)
     assert kinds == {"OFPFlowMod", "OFPPacketOut"}
-    miss = to_messages(fl.FlowAdd(1, 0, {}, fl.TO_CONTROLLER), dp)[0]
+    miss = to_messages(fl.FlowAdd(1, 0, {}, (fl.Output(fl.TO_CONTROLLER),)), dp)[0]
     assert miss.instructions[0].actions[0].port == ofproto_v1_3.OFPP_CONTROLLER
