@@ -142,10 +142,10 @@ class TurbineParams:
     """Pitch rate limit, deg/s [src: PARAMETERS.md, assumed]."""
     beta_max: float = 30.0
     """Largest pitch angle, deg [assumed]."""
-    v_chop: float = 1.15
+    v_chop: float = 1.1
     """DC chopper (braking resistor) threshold, p.u. [assumed]."""
-    k_chop: float = 50.0
-    """DC chopper gain, p.u. power / p.u. overvoltage (max 1.5 p.u. power) [assumed]."""
+    k_chop: float = 5.0
+    """DC chopper gain, p.u. power / p.u. overvoltage (max 1.5 p.u. power; 2 k/tau_dc = 1250 /s keeps the explicit step stable) [assumed]."""
     r_batt: float = 0.02
     """Battery internal resistance on the DC side, p.u. on turbine rating/DC base [assumed]."""
     v_batt: float = 1.0

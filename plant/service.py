@@ -66,7 +66,8 @@ def build_model(cfg: dict, n: int):
     if kind == "minimal":
         from plant.minimal import MinimalPlant
 
-        return MinimalPlant(n, step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1))
+        return MinimalPlant(n, step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1),
+                            remote_apply=cfg.get("remote_apply", "i_ref"))
     if kind == "full":
         from plant.params import PlantParams
         from plant.sim import Plant
@@ -158,7 +159,8 @@ class PlantService:
         if msg.header is not None and len(ep.ctrl_delays_ms) < 200_000:
             ep.ctrl_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
         if ep.streaming:
-            self.model.apply_remote(np.array([ep.index]), np.array([msg["v_ref_d"]]), np.array([msg["v_ref_q"]]))
+            self.model.apply_remote(np.array([ep.index]), np.array([msg["v_ref_d"]]), np.array([msg["v_ref_q"]]),
+                                    np.array([msg["i_ref_d"]]), np.array([msg["i_ref_q"]]))
 
     def _on_request(self, ep: Endpoint, msg: wire.Message) -> None:
         ep.counts["requests_rx"] += 1
@@ -252,7 +254,11 @@ class PlantService:
     # ------------------------------------------------------------------ loop
     def _write_status(self, now: float) -> None:
         status = {"t_sim": self.k * self.step_s, "steps": self.k, "n_steps": self.n_steps,
-                  "late_steps": self.late_steps, "t_wall": now,
+                  "late_steps": self.late_steps,
+            "converter_trips": {ep.name: int(self.model.trips[ep.index]) for ep in self.endpoints
+                                if getattr(self.model, "trips", None) is not None and self.model.trips[ep.index]},
+            "fallbacks": {ep.name: int(self.model.fallbacks[ep.index]) for ep in self.endpoints
+                          if getattr(self.model, "fallbacks", None) is not None and self.model.fallbacks[ep.index]}, "t_wall": now,
                   "meas_tx": sum(ep.counts["meas_tx"] for ep in self.endpoints),
                   "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in self.endpoints),
                   "streaming": [ep.name for ep in self.endpoints if ep.streaming]}
@@ -287,6 +293,10 @@ class PlantService:
             "steps": self.k,
             "scheduling": getattr(self, "scheduling", "default"),
             "late_steps": self.late_steps,
+            "converter_trips": {ep.name: int(self.model.trips[ep.index]) for ep in self.endpoints
+                                if getattr(self.model, "trips", None) is not None and self.model.trips[ep.index]},
+            "fallbacks": {ep.name: int(self.model.fallbacks[ep.index]) for ep in self.endpoints
+                          if getattr(self.model, "fallbacks", None) is not None and self.model.fallbacks[ep.index]},
             "max_lateness_ms": self.max_lateness_s * 1e3,
             "rx_wire": self.rx_stats.as_dict(),
             "events": self.events_applied,

@@ -17,22 +17,22 @@ class TestbedCLI(CLI):
     prompt = "sdvisc> "
 
     def __init__(self, net, run=None, **kwargs):
-        self.run = run
+        self.testbed = run
         super().__init__(net, **kwargs)
 
     def do_status(self, _line):
         """status: simulated time, late steps, packets, ViSC turbines and down links."""
-        st = self.run.plant_status() or {}
-        sdn = self.run.sdn_state() or {}
+        st = self.testbed.plant_status() or {}
+        sdn = self.testbed.sdn_state() or {}
         tables = sdn.get("tables", {})
-        print(f"t_sim={st.get('t_sim', 0):.2f}/{self.run.scenario.duration_s:.2f} s  late_steps={st.get('late_steps', 0)}"
+        print(f"t_sim={st.get('t_sim', 0):.2f}/{self.testbed.scenario.duration_s:.2f} s  late_steps={st.get('late_steps', 0)}"
               f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
         print(f"ViSC turbines: {', '.join(st.get('streaming', [])) or '-'}   active SDC: {tables.get('active_sdc')}")
         print(f"down links: {tables.get('down_links') or '-'}   openflow: {sdn.get('openflow', {})}")
 
     def do_tables(self, line):
         """tables [WT]: the SDN app's T1 (address), T2 (mode x/y) and T3 (communication x/y)."""
-        tables = (self.run.sdn_state() or {}).get("tables", {})
+        tables = (self.testbed.sdn_state() or {}).get("tables", {})
         names = sorted(tables.get("T1", {}))
         if line.strip():
             names = [n for n in names if n == line.strip()]
@@ -44,7 +44,7 @@ class TestbedCLI(CLI):
 
     def do_paths(self, _line):
         """paths: the installed path of every ViSC turbine."""
-        paths = (self.run.sdn_state() or {}).get("tables", {}).get("paths", {})
+        paths = (self.testbed.sdn_state() or {}).get("tables", {}).get("paths", {})
         for n, p in sorted(paths.items()):
             print(f"{n}: {' -> '.join(p['path'])}")
         if not paths:
@@ -60,9 +60,27 @@ class TestbedCLI(CLI):
         for item in parts[2:]:
             key, _, value = item.partition("=")
             params[key] = float(value)
-        self.run._to_stdin("owfcc.owfcc", {"cmd": f"visc_{parts[1]}", "wt": parts[0], "params": params})
+        self.testbed._to_stdin("owfcc.owfcc", {"cmd": f"visc_{parts[1]}", "wt": parts[0], "params": params})
         print(f"requested visc_{parts[1]} for {parts[0]}")
+
+    def do_link(self, line):
+        """link A B up|down: take the link between nodes A and B down or up (timed and recorded
+        like a timeline event, so its recovery appears in summary.json)."""
+        parts = line.split()
+        if len(parts) != 3 or parts[2] not in ("up", "down"):
+            print("usage: link A B up|down")
+            return
+        a, b, state = parts
+        try:
+            t_wall = self.testbed.set_link(a, b, state == "up")
+        except Exception as exc:  # noqa: BLE001 - report and keep the CLI alive
+            print(f"link {a} {b}: {exc}")
+            return
+        t = round(t_wall - self.testbed.t0, 6)
+        self.testbed.timeline_events.append({"t": t, "t_effective": t, "source": "cli", "type": f"link_{state}",
+                                         "a": a, "b": b})
+        print(f"t={t:.3f} s: link {a}-{b} {state}")
 
     def do_summary(self, _line):
         """summary: the SDN app's counters as JSON."""
-        print(json.dumps((self.run.sdn_state() or {}).get("counters", {}), indent=1))
+        print(json.dumps((self.testbed.sdn_state() or {}).get("counters", {}), indent=1))

@@ -178,7 +178,8 @@ class Run:
         plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": self.t0,
                      "model": sc.plant.model, "record": sc.plant.record or sc.turbines_named(),
                      "record_every": sc.plant.record_every, "ak_period_s": sc.plant.ak_period_s,
-                     "ak_window_s": sc.plant.ak_window_s, "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s}
+                     "ak_window_s": sc.plant.ak_window_s, "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s,
+                     "remote_apply": sc.plant.remote_apply}
         cfg = self._write_json("plant_config.json", plant_cfg)
         self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
 

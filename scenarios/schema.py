@@ -48,6 +48,9 @@ class PlantSpec(Strict):
     ak_period_s: float = Field(0.01, gt=0, le=1.0, description="AK report period")
     ak_window_s: float = Field(0.01, gt=0, le=1.0, description="AK = 1 if a CTRL arrived within this window")
     remote_loss_fallback_s: float = Field(0.1, gt=0, description="remote mode falls back after this loss time")
+    remote_apply: Literal["i_ref", "v_ref"] = Field(
+        "i_ref", description="what a remote turbine applies: the SDC's current reference (local current loop) "
+                             "or its converter voltage reference (inner loop closed over the network)")
 
 
 class SdcSpec(Strict):

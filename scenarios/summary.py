@@ -44,7 +44,8 @@ def _wall_to_t(events: list[dict], t0: float | None, source: str) -> list[dict]:
 
 FAULT_TYPES = ("link_down", "kill")
 DETECT_TYPES = ("dr", "port_status", "sdc_failover")
-GAP_MATCH_S = 0.010  # a control-packet gap belongs to a fault if it starts at most this long after it
+GAP_MATCH_S = 0.010
+MIN_INTERRUPTION_S = 0.020  # shorter gaps without an SDN reaction are jitter, not a fault's effect  # a control-packet gap belongs to a fault if it starts at most this long after it
 
 
 def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0: float | None,
@@ -63,15 +64,19 @@ def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0:
         t_f = fault.get("t_effective", fault["t"])
         for wt, stats in sorted(plant_turbines.items()):
             gaps = [(a - t0, b - t0) for a, b in stats.get("ctrl_gaps_wall", [])]
-            gap = next(((a, b) for a, b in gaps if a <= t_f + GAP_MATCH_S and b >= t_f), None)
             last = stats.get("last_ctrl_wall")
             last_t = last - t0 if last is not None else None
-            stopped = (gap is None and last_t is not None and t_f - GAP_MATCH_S <= last_t <= t_f + 0.1
+            # control packets stopped for good shortly after the fault (a few may still arrive in flight)
+            stopped = (last_t is not None and t_f - GAP_MATCH_S <= last_t <= t_f + 0.1
                        and last_t < duration_s - 0.05)
+            window = [(a, b) for a, b in gaps if t_f - GAP_MATCH_S <= a <= t_f + 0.1 and b >= t_f]
+            gap = None if stopped or not window else max(window, key=lambda g: g[1] - g[0])
             if gap is None and not stopped:
                 continue
             reaction = next((e for e in events if e.get("type") in DETECT_TYPES and e.get("t", -1) >= t_f - 1e-3
                              and (e.get("wt") == wt or wt in e.get("turbines", []))), None)
+            if gap is not None and reaction is None and gap[1] - gap[0] < MIN_INTERRUPTION_S:
+                continue  # ordinary delay jitter, not an interruption caused by this fault
             t_restored = gap[1] if gap else None
             out.append({
                 "wt": wt,
@@ -143,6 +148,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "steps": plant.get("steps", 0),
         "late_steps": plant.get("late_steps", 0),
         "max_lateness_ms": plant.get("max_lateness_ms"),
+        "converter_trips": plant.get("converter_trips", {}),
+        "fallbacks": plant.get("fallbacks", {}),
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,

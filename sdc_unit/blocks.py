@@ -154,6 +154,7 @@ class CumulativePI(_Block):
     def __init__(self, kp, ki, ts, n, dtype=np.float64):
         super().__init__(n, ts, dtype)
         self.kp, self.ki = self.c(kp), self.c(ki)
+        self.s["started"][:] = 1  # zero history (e(-1) = 0), the same convention as TustinPI
 
     def step(self, e, mask=None, hold=None):
         """hold: integrator frozen; the sums restart at this sample (i0 = last integral, e0 = e)."""
@@ -364,6 +365,7 @@ class CumulativeSwing(_Block):
         self.scale = float(scale)
         self.h = self.c(h)
         self.d = self.c(d)
+        self.s["started"][:] = 1  # zero history, the same convention as TustinSwing
 
     def set_hd(self, mask, h, d, rebase=True):
         if rebase:  # restart the sums at the last sample with the new law (otherwise the whole history is re-weighted)

@@ -154,8 +154,9 @@ class DiscreteVisc:
         ild, ilq, limited = law.circular_limit(isd, isq, dt.type(p.i_max))
         # inner current loop
         lf = dt.type(p.l_f)
-        v_ref_d = m["v_d"] - lf * m["i_q"] + self.pi_d.step(ild - m["i_d"], mask)
-        v_ref_q = m["v_q"] + lf * m["i_d"] + self.pi_q.step(ilq - m["i_q"], mask)
+        ffd, ffq = (vfd, vfq) if p.ff_filtered else (m["v_d"], m["v_q"])
+        v_ref_d = ffd - lf * m["i_q"] + self.pi_d.step(ild - m["i_d"], mask)
+        v_ref_q = ffq + lf * m["i_d"] + self.pi_q.step(ilq - m["i_q"], mask)
         if trial:  # trial pass: report the predicted limiter state only
             return (limited, ild, ilq)
         new_mem = dict(limited=limited.astype(dt), ild=ild, ilq=ilq, vmag=vmag, q=m["q"], vfr=vfr)

@@ -180,8 +180,9 @@ def _algebra(x, meas, p: ViscParams):
     p_e = np.where(limited, p_lim, meas.p)
     ed = ild - meas.i_d
     eq = ilq - meas.i_q
-    v_ref_d = meas.v_d - p.l_f * meas.i_q + p.k_pc * ed + x[IX_XID]
-    v_ref_q = meas.v_q + p.l_f * meas.i_d + p.k_pc * eq + x[IX_XIQ]
+    ffd, ffq = (vfd, vfq) if p.ff_filtered else (meas.v_d, meas.v_q)
+    v_ref_d = ffd - p.l_f * meas.i_q + p.k_pc * ed + x[IX_XID]
+    v_ref_q = ffq + p.l_f * meas.i_d + p.k_pc * eq + x[IX_XIQ]
     return dict(
         om_s=om_s,
         omega=omega,

@@ -64,6 +64,8 @@ class ViscParams:
         k_pc: current PI proportional gain [p.u. V / p.u. A], default 0.13 [assumed: D'Arco's
             1.27 gives a 5000 rad/s loop, above the 4690 rad/s Nyquist rate at Ts = 0.67 ms and
             unstable with the one-sample transport delay; 0.13 gives ~510 rad/s].
+        ff_filtered: feed forward the low-pass filtered voltage v_f instead of the raw sample v,
+            default False [assumed].
         k_ic: current PI integral gain [p.u. V / (p.u. A * s)], default 1.53 [assumed: zero at the
             filter pole omega0*r_f/l_f = 11.8 rad/s].
         l_f: filter inductance [p.u.], default 0.08 [D'Arco 2015].
@@ -95,6 +97,7 @@ class ViscParams:
     t_lpf: float = 0.02
     t_1: float = 0.15
     t_2: float = 0.05
+    ff_filtered: bool = False
     k_pc: float = 0.13
     k_ic: float = 1.53
     l_f: float = 0.08

@@ -18,6 +18,9 @@ K_STEP, K_FAULT_ON, K_FAULT_OFF, K_END = 150, 450, 600, 900
 def _single(mode: str) -> Plant:
     pp = PlantParams(topology="single", sc_connected=False)
     pp.grid.scr = 1000.0  # 1/SCR on 500 MVA: effectively an infinite bus for a 10 MW turbine
+    # let the machine side motor (the ViSC absorbs ~0.3 p.u. after the fault) so that the DC chopper,
+    # a kink the implicit reference solver cannot step across reliably, stays idle in both runs
+    pp.turbine.p_me_min = -1.0
     p = Plant(pp, n_turbines=1, step_s=DT)
     if mode == "hd_visc":
         p.set_power_ref(0, p=0.0)
@@ -26,13 +29,13 @@ def _single(mode: str) -> Plant:
     return p
 
 
-def _events():
-    return {K_STEP: lambda q: q.set_grid_emf(0.95), K_FAULT_ON: lambda q: q.fault(True, 0.0005),
+def _events(z_f: float = 0.0005):
+    return {K_STEP: lambda q: q.set_grid_emf(0.95), K_FAULT_ON: lambda q: q.fault(True, z_f),
             K_FAULT_OFF: lambda q: q.fault(False)}
 
 
-def _run_plant(p: Plant):
-    ev = _events()
+def _run_plant(p: Plant, z_f: float):
+    ev = _events(z_f)
     ys = [p.state_real()]
     for k in range(K_END):
         if k in ev:
@@ -42,8 +45,8 @@ def _run_plant(p: Plant):
     return np.array(ys)
 
 
-def _run_ivp(p: Plant, method: str = "Radau"):
-    ev = _events()
+def _run_ivp(p: Plant, z_f: float, method: str = "Radau"):
+    ev = _events(z_f)
     y = p.state_real()
     out = [y]
     marks = sorted(ev) + [K_END]
@@ -62,9 +65,9 @@ def _run_ivp(p: Plant, method: str = "Radau"):
     return np.array(out)
 
 
-def _compare(mode: str):
-    ya = _run_plant(_single(mode))
-    yb = _run_ivp(_single(mode), "Radau" if mode == "grid_following" else "RK45")
+def _compare(mode: str, z_f: float):
+    ya = _run_plant(_single(mode), z_f)
+    yb = _run_ivp(_single(mode), z_f)
     n = 1
     size = (ya.shape[1] - (ya.shape[1] - 2 * (9 * n + 12))) // 2
     i_a = ya[:, 0] + 1j * ya[:, size]
@@ -80,9 +83,12 @@ def _compare(mode: str):
 
 
 def test_grid_following_matches_solve_ivp():
-    _compare("grid_following")
+    _compare("grid_following", 0.0005)
 
 
 def test_hd_visc_matches_solve_ivp():
     pytest.importorskip("sdc_unit.law", reason="sdc_unit.law not available")
-    _compare("hd_visc")
+    # z_f = 0.002 p.u. (network base): V drops to ~0.89 p.u., the ViSC current rises to ~0.94 p.u.
+    # without reaching the 1.5 p.u. limiter, whose switching (a discontinuous right-hand side)
+    # stalls the implicit reference solver; the limited case is covered by test_plant_behaviour.
+    _compare("hd_visc", 0.002)

@@ -1,0 +1,45 @@
+"""How summary.json's ``recoveries`` are derived from a fault, the turbine's control-packet gaps
+and the SDN app's reaction (pure, no network)."""
+
+from __future__ import annotations
+
+import pytest
+
+from scenarios.summary import recoveries
+
+T0 = 1000.0
+
+
+def turbine(gaps, last):
+    return {"ctrl_gaps_wall": [(T0 + a, T0 + b) for a, b in gaps], "last_ctrl_wall": T0 + last}
+
+
+def test_restored_after_dr():
+    fault = {"t": 2.0, "t_effective": 2.003, "type": "link_down", "a": "s1", "b": "s3", "source": "timeline"}
+    stats = {"wt1_1": turbine([(1.5, 1.506), (2.0032, 2.054)], last=3.99)}
+    events = [{"t": 2.049, "type": "dr", "wt": "wt1_1"}]
+    (rec,) = recoveries([fault], stats, events, T0, duration_s=4.0)
+    assert rec["cause"] == "dr" and rec["t_fault"] == pytest.approx(2.003)
+    assert rec["recovery_ms"] == pytest.approx(51.0) and rec["detect_ms"] == pytest.approx(46.0)
+    assert rec["t_loss"] == pytest.approx(2.0032)
+
+
+def test_stopped_for_good_is_not_restored_even_with_a_packet_in_flight():
+    fault = {"t": 2.0, "type": "kill", "host": "sdc1", "process": "sdc"}
+    stats = {"wt1_1": turbine([(1.999, 2.006)], last=2.006)}
+    (rec,) = recoveries([fault], stats, [], T0, duration_s=4.0)
+    assert rec["recovery_ms"] is None and rec["t_restored"] is None and rec["cause"] == "none"
+
+
+def test_jitter_and_unaffected_turbines_are_not_recoveries():
+    fault = {"t": 2.0, "type": "link_down", "a": "s2", "b": "s3"}
+    stats = {"wt1_1": turbine([(2.01, 2.016)], last=3.99), "wt1_2": turbine([], last=3.99)}
+    assert recoveries([fault], stats, [], T0, duration_s=4.0) == []
+
+
+def test_failover_reaction_names_turbines():
+    fault = {"t": 2.0, "type": "kill", "host": "sdc1", "process": "sdc"}
+    stats = {"wt1_1": turbine([(2.0005, 2.046)], last=3.99)}
+    events = [{"t": 2.04, "type": "sdc_failover", "turbines": ["wt1_1"]}]
+    (rec,) = recoveries([fault], stats, events, T0, duration_s=4.0)
+    assert rec["cause"] == "sdc_failover" and rec["recovery_ms"] == pytest.approx(46.0)
