@@ -20,6 +20,8 @@ saturation are neglected; stator transients are neglected (network is quasi-stat
 
 from __future__ import annotations
 
+import cmath
+
 import numpy as np
 
 from plant.params import OMEGA0, CondenserParams
@@ -35,7 +37,7 @@ class Condenser:
         self.z2 = complex(params.ra, params.xd2)
 
     def e_net(self, x) -> complex:
-        return complex(x[EQ2].real, -x[ED2].real) * np.exp(1j * x[DELTA].real)
+        return complex(x[EQ2].real, -x[ED2].real) * cmath.exp(1j * x[DELTA].real)
 
     def current(self, x, v_term: complex) -> complex:
         """Stator current on the SC base, out of the machine, network frame."""
@@ -43,28 +45,28 @@ class Condenser:
 
     def rhs(self, x, v_term: complex, v_reg: float):
         p = self.p
-        i_net = self.current(x, v_term)
-        im = i_net * 1j * np.exp(-1j * x[DELTA].real)
+        delta, w, eq1, eq2, ed2, xll, efd = x.real.tolist()
+        v_term = complex(v_term)
+        i_net = (complex(eq2, -ed2) * cmath.exp(1j * delta) - v_term) / self.z2
+        im = i_net * 1j * cmath.exp(-1j * delta)
         i_d, i_q = im.real, im.imag
-        eq1, eq2, ed2 = x[EQ1].real, x[EQ2].real, x[ED2].real
-        efd = x[EFD].real
-        w = x[OMEGA].real
         te = ed2 * i_d + eq2 * i_q
         q = (v_term * i_net.conjugate()).imag
         u = self.v_ref - v_reg - p.m_q * q
         a = p.avr_ta_tb
-        y = a * u + (1.0 - a) * x[XLL].real
+        y = a * u + (1.0 - a) * xll
         defd = (p.avr_k * y - efd) / p.avr_te
         if (efd >= p.efd_max and defd > 0) or (efd <= p.efd_min and defd < 0):
             defd = 0.0
-        dx = np.empty(NX, dtype=complex)
-        dx[DELTA] = OMEGA0 * (w - 1.0)
-        dx[OMEGA] = (-te - p.d * (w - 1.0)) / (2.0 * p.h)
-        dx[EQ1] = (efd - eq1 - (p.xd - p.xd1) * i_d) / p.td01
-        dx[EQ2] = (eq1 - eq2 - (p.xd1 - p.xd2) * i_d) / p.td02
-        dx[ED2] = (-ed2 + (p.xq - p.xd2) * i_q) / p.tq02
-        dx[XLL] = (u - x[XLL].real) / p.avr_tb
-        dx[EFD] = defd
+        dx = [
+            OMEGA0 * (w - 1.0),
+            (-te - p.d * (w - 1.0)) / (2.0 * p.h),
+            (efd - eq1 - (p.xd - p.xd1) * i_d) / p.td01,
+            (eq1 - eq2 - (p.xd1 - p.xd2) * i_d) / p.td02,
+            (-ed2 + (p.xq - p.xd2) * i_q) / p.tq02,
+            (u - xll) / p.avr_tb,
+            defd,
+        ]
         return dx, i_net
 
     def init_state(self, v_term: complex, v_reg: float) -> np.ndarray:

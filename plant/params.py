@@ -124,6 +124,8 @@ class TurbineParams:
     """MSC DC-voltage PI integral gain, p.u. power / (p.u. voltage * s) [src: PARAMETERS.md, assumed]."""
     p_me_min: float = -0.05
     """Smallest machine-side power (motoring), p.u. [assumed]."""
+    p_headroom: float = 0.1
+    """MSC power allowed above the present aerodynamic power (rotor kinetic energy), p.u. [assumed]."""
     p_me_max: float = 1.1
     """Machine-side converter power rating, p.u. [assumed]."""
     h_rotor: float = 4.0
@@ -146,10 +148,16 @@ class TurbineParams:
     """DC chopper (braking resistor) threshold, p.u. [assumed]."""
     k_chop: float = 5.0
     """DC chopper gain, p.u. power / p.u. overvoltage (max 1.5 p.u. power; 2 k/tau_dc = 1250 /s keeps the explicit step stable) [assumed]."""
-    r_batt: float = 0.02
-    """Battery internal resistance on the DC side, p.u. on turbine rating/DC base [assumed]."""
+    r_batt: float = 0.2
+    """Battery internal resistance on the DC side, p.u. on turbine rating/DC base [assumed; 2/(tau_dc r_batt) = 1250 /s keeps the explicit step stable]."""
     v_batt: float = 1.0
     """Battery open-circuit voltage, p.u. of DC base [assumed]; SOC not modelled (2000 Ah >> seconds)."""
+    remote_apply: str = "v_ref"
+    """Remote mode applies "v_ref" (the received converter voltage reference, held) [brief] or "i_ref"
+    (the received limited current reference through the converter's local current loop
+    v_conv = v + (r_f + j l_f) i_ref + k_pc (i_ref - i), as plant.minimal does)."""
+    trip_current: float = 2.0
+    """Remote mode over-current protection: |i| above this trips the turbine back to grid-following, p.u. [assumed]."""
     remote_loss_fallback_s: float = 0.1
     """Remote mode: time without a new reference before falling back to grid-following, s [brief]."""
 

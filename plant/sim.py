@@ -115,11 +115,15 @@ class Plant:
         vl = self._v_pcc_last
         i_load = np.conj(self.load_s) * vl / max(abs(vl) ** 2, 0.49)
         active = net.plugged
-        i_t = np.where(active, S[T.I], 0.0)
+        i_t = np.where(active, S[T.IF], 0.0)
         V = net.solve(net.injections(i_t, e_grid, e_sc, i_load))
         v = V[:n]
         ext = tb.mode != T.GFL
         vext = tb.v_hold
+        if self.params.turbine.remote_apply == "i_ref":
+            tp = self.params.turbine
+            ih = tb.i_hold
+            vext = np.where(tb.mode == T.REMOTE, v + (tp.rf + 1j * tp.lf) * ih + tp.kpc * (ih - S[T.IF]), vext)
         dxl = None
         law_out = None
         if self.visc_idx.size:
@@ -127,6 +131,9 @@ class Plant:
             meas = law.Measurements(**self._meas_arrays(S, v, self.visc_idx, None))
             law_out = law.outputs(xl, meas, self.visc_params)
             dxl = law.derivatives(xl, meas, self.visc_params)
+            off = ~active[self.visc_idx]
+            if off.any():  # a disconnected ViSC is blocked: its law state is frozen too
+                dxl = np.where(off, 0.0, dxl)
             vext = vext.copy()
             vext[self.visc_idx] = np.asarray(_get(law_out, "v_ref_d")) + 1j * np.asarray(_get(law_out, "v_ref_q"))
         dS, aux = tb.rhs(S, v, vext, ext)
@@ -160,7 +167,7 @@ class Plant:
         return dX, dxl, None
 
     def _meas_arrays(self, S, v, idx, aux):
-        i = S[T.I, idx]
+        i = S[T.IF, idx]
         vv = v[idx]
         s = vv * np.conj(i)
         vdc = np.sqrt(np.maximum(S[T.W, idx].real, 1e-4))
@@ -172,6 +179,7 @@ class Plant:
     # ================================================================== integration
     def _eval_cached(self):
         if self._cache is None:
+            self.tb.hold_slow(self.X[: self.o_sc].reshape(T.NS, self.n))
             self._cache = self._rhs(self.X, self.xl, want_aux=True)
         return self._cache
 
@@ -182,8 +190,8 @@ class Plant:
         self._check_fallback()
         self.net.ensure()
         h = self.step_s / self.substeps
+        self._eval_cached()  # also holds the aerodynamics of this step (TurbineBank.hold_slow)
         X, xl = self.X, self.xl
-        self.tb.hold_slow(X[: self.o_sc].reshape(T.NS, self.n))
         if self.method == "etd2":
             E, phi1, phi2 = self._etd_coeffs(h)
             c = self._c
@@ -215,7 +223,6 @@ class Plant:
                                 lambda a, b: a + 2.0 * b)
                     xl = _tree(xl, inc, lambda a, b: a + (h / 6.0) * b)
         self.X, self.xl = X, xl
-        self.tb.slow = None
         self.k += 1
         self._cache = None
         self._eval_cached()
@@ -224,15 +231,19 @@ class Plant:
     def _etd_coeffs(self, h):
         """Exponential (ETD2RK, Cox-Matthews) coefficients for the stiff current-control pole.
 
-        The split uses c = OMEGA0 kpc / lf on the filter current of plugged grid-following turbines
+        The split uses c = OMEGA0 kpc / lf on the filter current of plugged turbines with a local
+        current loop (grid-following, and remote with remote_apply = "i_ref")
         (the closed current loop is di/dt = -c (i - i*) + ...), c = 0 elsewhere (-> Heun).
         """
-        key = (h, self.tb.mode.tobytes(), self.net.plugged.tobytes())
+        key = (h, self.tb.mode.tobytes(), self.net.plugged.tobytes(), self.params.turbine.remote_apply)
         if self._etd is not None and self._etd[0] == key:
             return self._etd[1]
         tp = self.params.turbine
         c = np.zeros(self.size)
-        gfl = (self.tb.mode == T.GFL) & self.net.plugged
+        loop = self.tb.mode == T.GFL
+        if tp.remote_apply == "i_ref":
+            loop = loop | (self.tb.mode == T.REMOTE)
+        gfl = loop & self.net.plugged
         c[: self.n] = np.where(gfl, OMEGA0 * tp.kpc / tp.lf, 0.0)
         ch = c * h
         E = np.exp(-ch)
@@ -299,31 +310,50 @@ class Plant:
             "sc_efd": xsc[6],
             "visc_delta": visc_delta, "visc_e": visc_e,
             "v_dc": aux["vdc"], "pitch": S[T.B].real.copy(), "omega_r": S[T.WR].real.copy(),
-            "v_pcc_ph": v_ph, "i_sc_ph_max": float(np.max(i_sc_ph)), "i_fault": abs(i_f) * net.sb,
+            "v_pcc_ph": v_ph, "i_sc_ph_max": float(np.max(i_sc_ph)), "i_fault": abs(i_f),
             "p_me": aux["pme"], "losses": net.series_losses(V),
         }
 
     # ================================================================== commands / events
-    def apply_remote(self, index_array, v_ref_d, v_ref_q) -> None:
+    def apply_remote(self, index_array, v_ref_d, v_ref_q, i_ref_d=None, i_ref_q=None) -> None:
+        """Store the received references (common frame, turbine p.u.); i_ref is used only with
+        ``TurbineParams.remote_apply == "i_ref"``."""
         idx = np.atleast_1d(np.asarray(index_array, dtype=int))
         self.tb.v_hold[idx] = np.asarray(v_ref_d) + 1j * np.asarray(v_ref_q)
+        if i_ref_d is not None and i_ref_q is not None:
+            self.tb.i_hold[idx] = np.asarray(i_ref_d) + 1j * np.asarray(i_ref_q)
         self.tb.last_rx_step[idx] = self.k
         self._cache = None
 
     def _check_fallback(self) -> None:
         tb = self.tb
-        if not tb.fallback_enabled:
-            return
         rem = np.nonzero(tb.mode == T.REMOTE)[0]
         if rem.size == 0:
             return
+        S = self.X[: self.o_sc].reshape(T.NS, self.n)
+        over = rem[np.abs(S[T.IF, rem]) > self.params.turbine.trip_current]
         late = rem[(self.k - tb.last_rx_step[rem]) * self.step_s >= self.params.turbine.remote_loss_fallback_s]
-        if late.size:
+        if not tb.fallback_enabled:
+            late = late[:0]
+        late = np.setdiff1d(late, over)
+        if late.size or over.size:
             _, _, aux = self._eval_cached()
-            S = self.X[: self.o_sc].reshape(T.NS, self.n)
-            tb.bumpless_gfl(S, aux["v"], late, aux["vconv"][late])
+            both = np.concatenate([late, over])
+            tb.bumpless_gfl(S, aux["v"], both, aux["vconv"][both])
             tb.fell_back[late] = True
+            tb.fallbacks[late] += 1
+            tb.trips[over] += 1
             self._cache = None
+
+    @property
+    def fallbacks(self) -> np.ndarray:
+        """Per turbine: how many times remote mode fell back to grid-following (lost references)."""
+        return self.tb.fallbacks
+
+    @property
+    def trips(self) -> np.ndarray:
+        """Per turbine: remote-mode over-current trips back to grid-following."""
+        return self.tb.trips
 
     def set_remote_fallback(self, enabled: bool) -> None:
         """Enable/disable the fall-back of ``remote`` turbines to grid-following on lost references."""
@@ -341,6 +371,7 @@ class Plant:
             self.tb.bumpless_gfl(S, aux["v"], idx, aux["vconv"][idx])
         elif code == T.REMOTE:
             self.tb.v_hold[idx] = aux["vconv"][idx]
+            self.tb.i_hold[idx] = S[T.IF, idx]
             self.tb.last_rx_step[idx] = self.k
             self.tb.fell_back[idx] = False
             self.tb.mode[idx] = T.REMOTE
@@ -398,12 +429,16 @@ class Plant:
         self.params.grid.e_grid = float(e)
         self._cache = None
 
+    def set_grid_voltage(self, magnitude: float) -> None:
+        """Alias of set_grid_emf (interface shared with plant.minimal)."""
+        self.set_grid_emf(magnitude)
+
     def load_step(self, mw: float, mvar: float = 0.0) -> None:
         """Add a constant-PQ load of ``mw`` (+ j ``mvar``) at the PCC (cumulative)."""
         self.load_s += complex(mw, mvar) / self.params.grid.s_base_mva
         self._cache = None
 
-    def fault(self, on: bool, z_f: complex = 0.0) -> None:
+    def fault(self, on: bool, z_f: complex = 0.0, **_) -> None:
         """Single-phase-to-ground fault at the PCC (sequence-network equivalent), z_f in network p.u."""
         self.net.set_fault(on, z_f)
         self._refresh()
@@ -421,15 +456,19 @@ class Plant:
         idx = np.atleast_1d(np.asarray(index, dtype=int))
         S = self.X[: self.o_sc].reshape(T.NS, self.n)
         if not on:
-            S[T.I, idx] = 0.0
+            S[T.IF, idx] = 0.0
         self.net.set_plugged(idx, on)
         self._refresh()
         if on:
             _, _, aux = self._eval_cached()
-            S[T.I, idx] = 0.0
+            S[T.IF, idx] = 0.0
             S[T.TH, idx] = np.angle(aux["v"][idx])
             S[T.XI, idx] = 0.0
             self._cache = None
+            if np.isin(idx, self.visc_idx).any():  # restart the ViSC law from the new operating point
+                _, _, aux = self._eval_cached()
+                self._init_law(self.visc_idx, S, aux["v"])
+                self._cache = None
 
     def _refresh(self) -> None:
         self.net.ensure()
@@ -459,6 +498,7 @@ class Plant:
 
         Identical equations to ``step`` except that aerodynamics are evaluated at every call.
         """
+        self.tb.slow = None
         X = y[: self.size] + 1j * y[self.size:2 * self.size]
         xl = None if self.xl is None else y[2 * self.size:].reshape(np.shape(self.xl))
         dX, dxl, aux = self._rhs(X, xl, want_aux=True)

@@ -3,7 +3,7 @@
 State of every turbine (rows of one complex array ``S`` of shape (NS, N); rows flagged real keep
 a zero imaginary part)::
 
-    I    filter-inductor current i = i_d + j i_q (complex, converter -> grid positive)
+    IF   filter-inductor current i = i_d + j i_q (complex, converter -> grid positive)
     XI   current-PI integrator, PLL frame (complex)
     TH   PLL angle theta versus the common frame, rad
     XP   PLL integrator (frequency deviation), p.u.
@@ -32,7 +32,8 @@ Equations (t in s, w0 = OMEGA0):
     rotor (single mass, stiff shaft, rotor+generator inertia lumped):
              2 h_rotor w_r dw_r/dt = P_aero - P_me
     aero:    P_aero = (Cp(lambda, beta)/Cp_opt) (v_w / v_rated)^3,  lambda = lambda_opt w_r v_rated / v_w
-             Cp: Heier/Slootweg formula; P_avail = min(p_me_max, P_aero(beta = 0))
+             Cp: Heier/Slootweg formula; P_avail = min(p_me_max, max(P_aero, 0) + p_headroom)
+             (the MSC may draw the present aerodynamic power plus a small kinetic-energy headroom)
     pitch:   beta* = clip(kp_b (w_r - w_ref) + x_b, 0, beta_max), dx_b/dt = ki_b (w_r - w_ref),
              dbeta/dt = clip((beta* - beta)/tau_b, -rate, rate)
 """
@@ -43,7 +44,7 @@ import numpy as np
 
 from plant.params import OMEGA0, TurbineParams
 
-I, XI, TH, XP, W, XD, WR, B, XB = range(9)
+IF, XI, TH, XP, W, XD, WR, B, XB = range(9)
 NS = 9
 
 GFL, HD_VISC, REMOTE = 0, 1, 2
@@ -76,15 +77,18 @@ class TurbineBank:
         self.p_cmd = np.zeros(n)
         self.mppt = np.ones(n, dtype=bool)  # grid-following P* from the MPPT curve (else p_cmd)
         self.v_hold = np.zeros(n, dtype=complex)
+        self.i_hold = np.zeros(n, dtype=complex)
         self.last_rx_step = np.zeros(n, dtype=np.int64)
         self.fallback_enabled = True
         self.fell_back = np.zeros(n, dtype=bool)
+        self.fallbacks = np.zeros(n, dtype=np.int64)
+        self.trips = np.zeros(n, dtype=np.int64)
         self.slow = None  # (P_aero, P_avail) held over one plant step, or None = evaluate every stage
 
     def hold_slow(self, S) -> None:
         """Evaluate aerodynamics once per plant step (zero-order hold; rotor/pitch act in seconds)."""
-        wr = S[WR].real
-        self.slow = (self.p_aero(wr, S[B].real), self.p_avail(wr))
+        pa = self.p_aero(S[WR].real, S[B].real)
+        self.slow = (pa, self.p_avail(pa))
 
     # ------------------------------------------------------------------ aero
     def p_aero(self, wr, beta):
@@ -92,8 +96,9 @@ class TurbineBank:
         lam = LAMBDA_OPT * np.maximum(wr, 0.05) / vr
         return np.maximum(cp_heier(lam, beta), 0.0) / CP_OPT * vr**3
 
-    def p_avail(self, wr):
-        return np.minimum(self.p.p_me_max, self.p_aero(wr, 0.0))
+    def p_avail(self, paero):
+        """Upper limit of the machine-side power: present aero power + kinetic headroom, <= rating."""
+        return np.minimum(self.p.p_me_max, np.maximum(paero, 0.0) + self.p.p_headroom)
 
     def wr0(self):
         return np.minimum(self.p.omega_r_ref, self.v_wind / self.p.v_wind_rated)
@@ -106,7 +111,7 @@ class TurbineBank:
     def gfl_vconv(self, S, v):
         """Grid-following converter voltage (unlimited) and PLL error."""
         p = self.p
-        i = S[I]
+        i = S[IF]
         rot = np.exp(1j * S[TH].real)
         vp = v * rot.conj()
         vmag = np.maximum(np.abs(v), 0.1)
@@ -131,7 +136,7 @@ class TurbineBank:
         (remote and hd_visc); the others run grid-following.  Returns (dS, aux).
         """
         p = self.p
-        i = S[I]
+        i = S[IF]
         vconv_gfl, e, ev = self.gfl_vconv(S, v)
         vconv = np.where(ext_mask, vconv_ext, vconv_gfl)
         vdc = np.sqrt(np.maximum(S[W].real, 1e-4))
@@ -146,7 +151,8 @@ class TurbineBank:
         edc = p.v_dc_ref - vdc
         pme_u = p.kp_dc * edc + S[XD].real
         if self.slow is None:
-            paero, pav = self.p_aero(wr, beta), self.p_avail(wr)
+            paero = self.p_aero(wr, beta)
+            pav = self.p_avail(paero)
         else:
             paero, pav = self.slow
         pme = np.maximum(np.minimum(pme_u, pav), p.p_me_min)
@@ -158,7 +164,7 @@ class TurbineBank:
         aw_b = ((bref_u <= 0.0) & (ew < 0)) | ((bref_u >= p.beta_max) & (ew > 0))
 
         dS = np.empty_like(S)
-        dS[I] = (OMEGA0 / p.lf) * (vconv - v - (p.rf + 1j * p.lf) * i)
+        dS[IF] = (OMEGA0 / p.lf) * (vconv - v - (p.rf + 1j * p.lf) * i)
         dS[XI] = np.where(lim | ext_mask, 0.0, e)
         dS[TH] = OMEGA0 * (p.kp_pll * ev + S[XP].real)
         dS[XP] = p.ki_pll * ev
@@ -178,7 +184,7 @@ class TurbineBank:
         p = self.p
         n = self.n
         S = np.zeros((NS, n), dtype=complex)
-        S[I] = i
+        S[IF] = i
         th = np.angle(v)
         S[TH] = th
         vconv = v + (p.rf + 1j * p.lf) * i
@@ -203,7 +209,7 @@ class TurbineBank:
     def bumpless_gfl(self, S, v, idx, vconv_now):
         """Switch turbines idx to grid-following keeping v_conv continuous (P* = present P, Q* = 0)."""
         p = self.p
-        i = S[I, idx]
+        i = S[IF, idx]
         s_now = v[idx] * i.conj()
         self.p_cmd[idx] = s_now.real
         self.mppt[idx] = False

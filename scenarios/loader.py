@@ -38,7 +38,8 @@ def _clean_loc(loc: tuple) -> tuple:
     out = []
     for i, part in enumerate(loc):
         if i > 0 and out and out[0] == "timeline" and len(out) == 2 and isinstance(part, str) and part in (
-                "visc_on", "visc_off", "set_params", "link_down", "link_up", "kill", "set", "load_step", "fault", "scr"):
+                "visc_on", "visc_off", "set_params", "link_down", "link_up", "path_link_down", "restore_links", "kill",
+                "set", "load_step", "fault", "scr"):
             continue
         out.append(part)
     return tuple(out)

@@ -59,6 +59,7 @@ class Run:
         self.finished = threading.Event()
         self.datapath = default_datapath()
         self.exited_early: dict[str, int] = {}
+        self.links_down: set[tuple[str, str]] = set()
 
     # ------------------------------------------------------------------ set-up
     def _say(self, text: str) -> None:
@@ -205,6 +206,19 @@ class Run:
             self._to_stdin("owfcc.owfcc", {"cmd": kind, "wt": event.wt, "params": getattr(event, "params", {})})
         elif kind in ("link_down", "link_up"):
             record["t_effective"] = round(self.set_link(event.a, event.b, kind == "link_up") - self.t0, 6)
+        elif kind == "path_link_down":
+            link = self.current_path_link(event.wt, event.hop)
+            if link is None:
+                record["type"] = "path_link_down_skipped"
+                record["reason"] = f"{event.wt} has no installed path with switch-to-switch links"
+            else:
+                record.update(type="link_down", a=link[0], b=link[1], requested="path_link_down")
+                record["t_effective"] = round(self.set_link(link[0], link[1], False) - self.t0, 6)
+        elif kind == "restore_links":
+            down = sorted(self.links_down)
+            for a, b in down:
+                self.set_link(a, b, True)
+            record["links"] = down
         elif kind == "kill":
             name = "controller" if event.process == "controller" else f"{event.host}.{event.process}"
             proc = self.procs.get(name)
@@ -223,6 +237,16 @@ class Run:
             timer.daemon = True
             timer.start()
 
+    def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
+        """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
+        state = self.sdn_state() or {}
+        path = state.get("tables", {}).get("paths", {}).get(wt, {}).get("path")
+        if not path:
+            return None
+        switches = self.desc["switches"]
+        inner = [(a, b) for a, b in zip(path, path[1:]) if a in switches and b in switches]
+        return inner[hop % len(inner)] if inner else None
+
     def set_link(self, a: str, b: str, up: bool) -> float:
         """Set the link a–b up or down; returns the wall time at which its first end changed.
 
@@ -233,6 +257,10 @@ class Run:
         if not links:
             raise RunError(f"no link {a}-{b}")
         state = "up" if up else "down"
+        if up:
+            self.links_down.discard(tuple(sorted((a, b))))
+        else:
+            self.links_down.add(tuple(sorted((a, b))))
         t_first = None
         for intf in (links[0].intf1, links[0].intf2):
             if intf.node in self.net.switches:

@@ -110,6 +110,21 @@ class LinkUp(_Event):
     b: str
 
 
+class PathLinkDown(_Event):
+    """Fail the ``hop``-th switch-to-switch link of the path currently carrying ``wt``'s traffic
+    (as the SDN app reports it; counted from the SDC side, modulo the number of such links)."""
+
+    do: Literal["path_link_down"]
+    wt: str = Field(pattern=TURBINE_PATTERN)
+    hop: int = Field(0, ge=0)
+
+
+class RestoreLinks(_Event):
+    """Bring every link this run took down back up."""
+
+    do: Literal["restore_links"]
+
+
 class Kill(_Event):
     do: Literal["kill"]
     host: str
@@ -137,7 +152,8 @@ class Scr(_Event):
     value: float = Field(gt=0)
 
 
-Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | Kill | SetParam | LoadStep | Fault | Scr,
+Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | PathLinkDown | RestoreLinks | Kill | SetParam
+                  | LoadStep | Fault | Scr,
                   Field(discriminator="do")]
 
 

@@ -73,7 +73,9 @@ def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0:
             gap = None if stopped or not window else max(window, key=lambda g: g[1] - g[0])
             if gap is None and not stopped:
                 continue
-            reaction = next((e for e in events if e.get("type") in DETECT_TYPES and e.get("t", -1) >= t_f - 1e-3
+            latest = (gap[1] + 0.005) if gap else t_f + 1.0
+            reaction = next((e for e in events if e.get("type") in DETECT_TYPES
+                             and t_f - 1e-3 <= e.get("t", -1) <= latest
                              and (e.get("wt") == wt or wt in e.get("turbines", []))), None)
             if gap is not None and reaction is None and gap[1] - gap[0] < MIN_INTERRUPTION_S:
                 continue  # ordinary delay jitter, not an interruption caused by this fault

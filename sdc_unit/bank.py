@@ -116,9 +116,14 @@ class ControllerBank:
     def step(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """Advance the controllers of ``slots`` by one sample; returns (outputs, valid) per given slot."""
         slots = np.asarray(slots)
-        finite = np.all([np.isfinite(meas[k]) for k in self.MEAS_KEYS], axis=0)
+        finite = np.isfinite(meas[self.MEAS_KEYS[0]])
+        for k in self.MEAS_KEYS[1:]:
+            finite &= np.isfinite(meas[k])
         usable = finite & self.started[slots]
-        self._initialise(slots[usable], {k: v[usable] for k, v in meas.items()})
+        all_usable = bool(usable.all())
+        used = slots if all_usable else slots[usable]
+        if not self.initialised[used].all():  # only a fresh slot needs the (per-slot) initialisation
+            self._initialise(used, {k: v[usable] for k, v in meas.items()})
         if self.visc is None:
             v = self.hold_v[slots]
             out = {k: np.zeros(len(slots)) for k in OUT_KEYS}
@@ -127,20 +132,22 @@ class ControllerBank:
             out["omega"] = np.ones(len(slots))
             out["limited"] = np.zeros(len(slots), dtype=bool)
             return out, usable
-        return self._step_visc(slots, meas, usable)
+        return self._step_visc(slots, meas, usable, used, all_usable)
 
-    def _step_visc(self, slots, meas, usable):
-        full = {k: np.zeros(self.capacity) for k in self.MEAS_KEYS}
+    def _step_visc(self, slots, meas, usable, used, all_usable):
+        full = {}
         for k in self.MEAS_KEYS:
-            full[k][slots[usable]] = meas[k][usable]
+            a = np.zeros(self.capacity)
+            a[used] = meas[k] if all_usable else meas[k][usable]
+            full[k] = a
         saved = self.visc.active.copy()
         stepping = np.zeros(self.capacity, dtype=bool)
-        stepping[slots[usable]] = True
-        self.visc.active[:] = saved & stepping
+        stepping[used] = True
+        self.visc.active &= stepping
         try:
             result = self.visc.step(SimpleNamespace(**full))
         finally:
             self.visc.active[:] = saved
-        valid = usable & np.asarray(result.valid)[slots]
-        out = {k: np.asarray(getattr(result, k))[slots] for k in OUT_KEYS}
+        valid = usable & result.valid[slots]
+        out = {k: getattr(result, k)[slots] for k in OUT_KEYS}
         return out, valid

@@ -132,5 +132,10 @@ def mirror_flows(hops_to_mirror: list[tuple[str, int, int]], dpids: dict[str, in
     return flows
 
 
-def turbine_cookie(wid: int) -> int:
-    return COOKIE_BASE + wid
+COOKIE_MASK_TURBINE = 0xFFFFFFFF  # low 32 bits: base + turbine id; bits 32..47: path version
+
+
+def turbine_cookie(wid: int, version: int = 0) -> int:
+    """Cookie of a turbine's path flows; each reroute installs a new ``version`` first and then
+    deletes the old one (make before break)."""
+    return ((version & 0xFFFF) << 32) | (COOKIE_BASE + wid)

@@ -179,10 +179,30 @@ class Controller:
         if active.sdc == self.config.primary_sdc:
             flows = fl.path_flows(hops(self.graph, active.path), self.dpids, self._host(active.sdc).ip, wt_ip,
                                   active.cookie)
+            flows = self._guard_ingress(active, flows)
             return flows + self._mirror_flows(active, flows)
         # served by a substitute SDC while addressing the primary's address
-        return fl.substitute_path_flows(hops(self.graph, active.path), self.dpids, self._addr(active.sdc), wt_ip,
-                                        self._addr(self.config.primary_sdc), active.cookie)
+        return self._guard_ingress(active, fl.substitute_path_flows(
+            hops(self.graph, active.path), self.dpids, self._addr(active.sdc), wt_ip,
+            self._addr(self.config.primary_sdc), active.cookie))
+
+    def _guard_ingress(self, active: ActivePath, flows: list) -> list:
+        """Access control: on the OpenFlow switch where the turbine's packets enter, its upstream
+        flow also matches the T1-registered MAC and ingress port, so a host spoofing its IP (or
+        any other host) reaches only the table miss, where it is counted and dropped."""
+        path = active.path if active.path[-1] == active.wt else list(reversed(active.path))
+        of_hops = hops(self.graph, path)
+        if not of_hops:
+            return flows
+        ingress, _, toward_wt = of_hops[-1]
+        row = self.tables.t1[active.wt]
+        guarded = []
+        for f in flows:
+            if f.dpid == self.dpids[ingress] and f.match.get("ipv4_src") == row.ip:
+                f = fl.FlowAdd(f.dpid, f.priority, {**f.match, "in_port": toward_wt, "eth_src": row.mac},
+                               f.actions, f.cookie)
+            guarded.append(f)
+        return guarded
 
     def _mirror_flows(self, active: ActivePath, flows: list) -> list:
         backup = self.config.backup_sdc
@@ -206,15 +226,22 @@ class Controller:
         return mirrored
 
     def _install(self, name: str, sdc: str, path: list[str], wid: int, now: float) -> list:
-        active = ActivePath(name, sdc, path, now, fl.turbine_cookie(wid))
+        """Install (or move) a turbine's path: new flows first, under a new cookie version, then
+        the old version's flows are deleted (make before break; on switches both paths share, the
+        new flow overwrites the old one in place)."""
+        old = self.paths.get(name)
+        version = old.reroutes + 1 if old is not None else 0
+        active = ActivePath(name, sdc, path, now, fl.turbine_cookie(wid, version))
         flows = self._flows_for(active)
         active.dpids = sorted({f.dpid for f in flows})
-        old = self.paths.get(name)
-        if old is not None:
-            active.reroutes = old.reroutes + 1
+        active.reroutes = version
         self.paths[name] = active
         self.counters["flow_mods"] += len(flows)
-        return flows + self._learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
+        actions = flows + self._learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
+        if old is not None:
+            self.counters["flow_deletes"] += len(old.dpids)
+            actions += [fl.FlowDelete(dpid, old.cookie) for dpid in old.dpids]
+        return actions
 
     def _remove_path(self, name: str) -> list:
         active = self.paths.pop(name, None)
@@ -285,7 +312,7 @@ class Controller:
             self._event(now, "reroute_failed", wt=name, cause=cause, t_loss=t_loss, path=active.path)
             return []
         wid = wire.turbine_id(self.tables.t1[name].cluster, self.tables.t1[name].number)
-        actions = self._remove_path(name) + self._install(name, active.sdc, new_path, wid, now)
+        actions = self._install(name, active.sdc, new_path, wid, now)
         self.tables.set_comm(name, link_ok=True)
         self.counters[f"reroute_{cause}"] += 1
         self._event(now, cause, wt=name, t_loss=t_loss, t_detect=now, old_path=active.path, new_path=new_path,
@@ -319,7 +346,7 @@ class Controller:
                 self._event(now, "failover_no_path", wt=name, sdc=backup)
                 continue
             wid = wire.turbine_id(self.tables.t1[name].cluster, self.tables.t1[name].number)
-            actions += self._remove_path(name) + self._install(name, backup, path, wid, now)
+            actions += self._install(name, backup, path, wid, now)
             actions += self._command(now, backup, wire.PORT_SDC, wire.Command.TAKEOVER, wid, sdc=backup)
             self.dr.start(name, now)
         self.counters["sdc_failovers"] += 1

@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
 
@@ -18,7 +19,8 @@ pytestmark = pytest.mark.docker
 
 IMAGE = "sdvisc:test"
 # what works where --privileged is refused (PLATFORM.md); on a normal machine --privileged also works
-CAPS = ["--cap-add", "NET_ADMIN", "--cap-add", "SYS_ADMIN", "--cap-add", "NET_RAW", "--device", "/dev/net/tun"]
+CAPS = ["--cap-add", "NET_ADMIN", "--cap-add", "SYS_ADMIN", "--cap-add", "NET_RAW", "--cap-add", "SYS_NICE",
+        "--device", "/dev/net/tun"]
 
 
 def docker_unavailable() -> str | None:
@@ -36,6 +38,10 @@ def test_image_runs_smoke_scenario(tmp_path):
     reason = docker_unavailable()
     if reason:
         pytest.skip(reason)
+    # trust the host's extra CAs inside the build (TLS-intercepting networks; docker/extra-ca/README.md)
+    extra = ROOT / "docker" / "extra-ca"
+    for crt in Path("/usr/local/share/ca-certificates").glob("*.crt"):
+        shutil.copy(crt, extra / crt.name)
     build = subprocess.run(["docker", "build", "-q", "-f", "docker/Dockerfile", "-t", IMAGE, "."], cwd=ROOT,
                            capture_output=True, text=True, timeout=2400)
     assert build.returncode == 0, build.stderr[-3000:]

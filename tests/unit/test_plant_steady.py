@@ -94,3 +94,34 @@ def test_remote_fallback_after_loss():
     for _ in range(n_loss):
         p.step()
     assert p.tb.mode[3] == 2, "with the flag off the last reference is held"
+
+
+def test_plug_and_replug():
+    p = Plant(n_turbines=10)
+    n0 = p.net.n_factorizations
+    r = p.run_offline(1.2, events=[(0.2, lambda q: q.plug([0, 3], False)), (0.6, lambda q: q.plug([0, 3], True))],
+                      record_every=15)
+    t = r["t"]
+    off = (t > 0.25) & (t < 0.55)
+    assert np.all(r["p_wt"][off][:, [0, 3]] == 0.0) and np.all(r["i_wt"][off][:, [0, 3]] == 0.0)
+    assert abs(r["p_wt"][-1, 0] - 1.0) < 1e-3 and abs(r["v_dc"][-1, 0] - 1.0) < 1e-3
+    assert p.net.n_factorizations == n0 + 2
+
+
+def test_remote_i_ref_option_and_service_call_signature():
+    pp = PlantParams()
+    pp.turbine.remote_apply = "i_ref"
+    p = Plant(pp, n_turbines=5)
+    p.set_mode(2, "remote")
+    m = p.measurements()
+    v = m["v_d"][2] + 1j * m["v_q"][2]
+    i_ref = 0.5 * v / abs(v)  # 0.5 p.u. at unity power factor
+    for _ in range(int(0.05 / p.step_s)):
+        p.apply_remote([2], [0.0], [0.0], [i_ref.real], [i_ref.imag])
+        p.step()
+    o = p.outputs()
+    assert abs(o["i_wt"][2] - 0.5) < 0.01 and abs(o["q_wt"][2]) < 0.03  # v angle moves as P drops
+    assert p.fallbacks[2] == 0 and p.trips[2] == 0
+    for _ in range(int(0.15 / p.step_s)):
+        p.step()
+    assert p.fallbacks[2] == 1 and p.tb.mode[2] == 0

@@ -128,6 +128,11 @@ def test_visc_on_installs_both_directions_and_commands_sdc_turbine_owfcc(ctl):
     assert ("10.0.0.21", wire.PORT_SDC, wire.MsgType.REQUEST, wire.Command.START_INSTANCE) in kinds
     assert ("10.0.1.1", wire.PORT_TURBINE, wire.MsgType.REQUEST, wire.Command.STREAM_START) in kinds
     assert ("10.0.0.10", wire.PORT_OWFCC, wire.MsgType.REPLY, wire.Status.OK) in kinds
+    # access control: where the turbine's packets enter (s3, from the L2 switch), the flow also
+    # matches its registered MAC and ingress port
+    ingress = next(a for a in adds if a.dpid == 3 and a.match["ipv4_src"] == "10.0.1.1")
+    assert ingress.match["eth_src"] == "02:00:00:00:01:01"
+    assert ingress.match["in_port"] == ctl.graph.edges["s3", "l2"]["ports"]["s3"]
     start = next(m for d, _, m in outs if d == "10.0.0.21")
     assert start["h"] == pytest.approx(3.0) and start["mask"] == 1
     assert str(ctl.tables.t2["wt1_1"]) == "1/1" and str(ctl.tables.t3["wt1_1"]) == "1/1"

@@ -1,0 +1,54 @@
+"""Offline speed of the plant: simulated seconds per wall-clock second (prints one JSON object).
+
+Usage: python benchmarks/plant_speed.py [sim_seconds]
+The wall clock is used here only to measure the benchmark, never inside the model.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+import sys
+import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+
+import numpy as np  # noqa: E402
+
+from plant.sim import Plant  # noqa: E402
+
+
+def _rate(p: Plant, t_sim: float) -> float:
+    n = int(round(t_sim / p.step_s))
+    t0 = time.perf_counter()
+    for _ in range(n):
+        p.step()
+        p.measurements()
+    return n * p.step_s / (time.perf_counter() - t0)
+
+
+def main() -> None:
+    t_sim = float(sys.argv[1]) if len(sys.argv) > 1 else 3.0
+    out = {"step_s": 0.67e-3, "sim_seconds": t_sim}
+    out["realtime_factor_50wt"] = round(_rate(Plant(n_turbines=50), t_sim), 3)
+    try:
+        p = Plant(n_turbines=50)
+        idx = np.arange(20, 24)
+        p.set_power_ref(idx, p=0.0)
+        p.reinitialise()
+        p.set_mode(idx, "hd_visc")
+        out["realtime_factor_50wt_4hd_visc"] = round(_rate(p, t_sim), 3)
+    except RuntimeError as exc:  # sdc_unit.law not available
+        out["realtime_factor_50wt_4hd_visc"] = None
+        out["note"] = str(exc)
+    p = Plant(n_turbines=50)
+    p.set_mode(np.arange(20, 24), "remote")
+    out["realtime_factor_50wt_4remote"] = round(_rate(p, t_sim), 3)
+    out["machine"] = {"processor": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
+                      "python": platform.python_version(), "numpy": np.__version__}
+    print(json.dumps(out))
+
+
+if __name__ == "__main__":
+    main()
