@@ -36,6 +36,7 @@ TOPOLOGIES = {
 MECHANISMS = {
     "dr": {"dynamic_routing": True, "reroute_on_port_status": False},
     "port_status": {"dynamic_routing": True, "reroute_on_port_status": True},
+    "ff": {"dynamic_routing": True, "reroute_on_port_status": False, "fast_failover": True},
 }
 
 
@@ -71,6 +72,21 @@ def run(scenario: dict, work: Path) -> dict:
     return json.loads((out / "summary.json").read_text())
 
 
+def targeted_interruptions(summary: dict) -> list[float]:
+    """For each path failure: how long the targeted turbine's control packets stopped, from the
+    failure to the next control packet (gaps shorter than the plant's 5 ms gap threshold count as
+    5 ms, an upper bound)."""
+    out = []
+    for e in summary["events"]:
+        if e.get("source") != "timeline" or e.get("requested") != "path_link_down":
+            continue
+        t_f = e["t_effective"]
+        gaps = summary["turbines"].get(e["wt"], {}).get("ctrl_gaps", [])
+        hit = [b for a, b in gaps if t_f - 0.01 <= a <= t_f + 0.1 and b >= t_f]
+        out.append((max(hit) - t_f) * 1e3 if hit else 5.0)
+    return out
+
+
 def percentiles(values: list[float]) -> dict:
     if not values:
         return {"n": 0}
@@ -100,6 +116,8 @@ def main(argv: list[str] | None = None) -> int:
             summary = run(failure_scenario(name, topo, turbines, sdn, args.failures), work)
             recs = summary["recoveries"]
             times = [r["recovery_ms"] for r in recs if r["recovery_ms"] is not None]
+            if mech == "ff":
+                times = targeted_interruptions(summary)
             samples[mech] += times
             unrecovered[mech] += sum(r["recovery_ms"] is None for r in recs)
             faults = sum(e["type"] == "link_down" and e.get("source") == "timeline" for e in summary["events"])
@@ -116,8 +134,10 @@ def main(argv: list[str] | None = None) -> int:
         result[f"{mech}_unrecovered"] = unrecovered[mech]
     result["dr_p95_ms"] = result["dr_ms"].get("p95")
     result["port_status_p95_ms"] = result["port_status_ms"].get("p95")
-    result["ff_p95_ms"] = None
-    result["ff_note"] = "fast-failover groups not implemented yet"
+    result["ff_p95_ms"] = result["ff_ms"].get("p95")
+    result["ff_note"] = ("with fast-failover groups, failures the data plane repairs are interruptions shorter "
+                         "than 20 ms and may not register as recoveries; ff_unrecovered and the per-run fault "
+                         "counts say how many failures did")
     result["failover_ms"] = percentiles(failover)
     result["failover_p95_ms"] = result["failover_ms"].get("p95")
     result["goals"] = GOALS

@@ -17,7 +17,8 @@ Two measurements, both on this machine, both of what ``sdc_unit.service`` does p
   t0 + k Ts (a plant does not wait) and is late if its round finishes after t0 + (k + 1) Ts; a late
   round delays the next one (queueing, as in the service). N holds real time if fewer than 1 % of
   the rounds are late. The largest such N in 1..64 is found by bisection (assumes monotonicity;
-  every probe is reported). Sockets are not included (the loopback/netns cost is measured by the
+  every probe is reported). ``n_offline_bound`` is the N at which the median round cost (a straight line
+  fitted to the offline rounds) reaches Ts: an upper bound with zero slack, not a real-time result. Sockets are not included (the loopback/netns cost is measured by the
   testbed's own delay statistics), so this is an upper bound for the service.
 
 The machine may be shared: the load average before and after is recorded with the result.
@@ -268,6 +269,13 @@ def run(ns=(1, 4, 16, 50), offline_s: float = 1.0, realtime_s: float = 3.0, n_ma
     """The whole benchmark as a JSON-able dict (the core function; ``main`` prints it)."""
     load0 = os.getloadavg()
     steps = {str(n): offline(n, offline_s, method, dtype) for n in ns}
+    xs = np.array([float(n) for n in ns])
+    ys = np.array([steps[str(n)]["us_per_step_with_wire"] for n in ns])
+    if len(ns) >= 2:
+        slope, icpt = np.polyfit(xs, ys, 1)
+    else:
+        slope, icpt = steps[str(ns[0])]["wire_us_per_instance"], ys[0] - steps[str(ns[0])]["wire_us_per_instance"]
+    bound = int(max(0.0, (TS * 1e6 - icpt) / slope)) if slope > 0 else None
     n_rt, probes = max_realtime(realtime_s, n_max, TS, method, dtype)
     at_goal = next((p for p in probes if p["n"] == goal), None)
     if at_goal is None and goal <= n_max:
@@ -292,6 +300,8 @@ def run(ns=(1, 4, 16, 50), offline_s: float = 1.0, realtime_s: float = 3.0, n_ma
             "scheduling": scheduling,
         },
         "steps_per_s": steps,
+        "round_cost_fit_us": {"per_round": round(float(icpt), 1), "per_instance": round(float(slope), 2)},
+        "n_offline_bound": bound,
         "max_instances_realtime": n_rt,
         "realtime_probes": probes,
         "goal_instances": goal,

@@ -312,6 +312,9 @@ class Plant:
             "v_dc": aux["vdc"], "pitch": S[T.B].real.copy(), "omega_r": S[T.WR].real.copy(),
             "v_pcc_ph": v_ph, "i_sc_ph_max": float(np.max(i_sc_ph)), "i_fault": abs(i_f),
             "p_me": aux["pme"], "losses": net.series_losses(V),
+            # aliases shared with plant.minimal (used by plant.recorder)
+            "p": s_wt.real, "q": s_wt.imag, "i_mag": np.abs(i), "mode": self.tb.mode.copy(),
+            "f_pcc_hz": 50.0 * float(aux["f_pcc"]),
         }
 
     # ================================================================== commands / events

@@ -105,7 +105,8 @@ class TurbineBank:
 
     def p_star(self, wr):
         """Grid-following active-power reference: MPPT curve P = min(w_r^3, 1) or the command."""
-        return np.where(self.mppt, np.minimum(np.maximum(wr, 0.0) ** 3, 1.0), self.p_cmd)
+        mp = np.minimum(np.maximum(wr, 0.0) ** 3, 1.0)
+        return mp if self.mppt.all() else np.where(self.mppt, mp, self.p_cmd)
 
     # ------------------------------------------------------------------ controls
     def gfl_vconv(self, S, v):
@@ -118,8 +119,7 @@ class TurbineBank:
         ev = vp.imag / vmag
         vd = np.maximum(vp.real, 0.3)
         iref = (self.p_star(S[WR].real) - 1j * self.q_cmd) / vd
-        im = np.abs(iref)
-        iref = np.where(im > p.i_max_gfl, iref * (p.i_max_gfl / np.maximum(im, 1e-9)), iref)
+        iref = iref * np.minimum(1.0, p.i_max_gfl / np.maximum(np.abs(iref), 1e-9))
         e = iref - i * rot.conj()
         vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot
         return vconv, e, ev
@@ -143,7 +143,7 @@ class TurbineBank:
         vmax = p.m_max * vdc
         vm = np.abs(vconv)
         lim = vm > vmax
-        vconv = np.where(lim, vconv * (vmax / np.maximum(vm, 1e-9)), vconv)
+        vconv = vconv * np.minimum(1.0, vmax / np.maximum(vm, 1e-9))
         pconv = (vconv * i.conj()).real
         # machine side
         wr = S[WR].real
@@ -156,8 +156,8 @@ class TurbineBank:
         else:
             paero, pav = self.slow
         pme = np.maximum(np.minimum(pme_u, pav), p.p_me_min)
-        aw_dc = ((pme_u > pav) & (edc > 0)) | ((pme_u < p.p_me_min) & (edc < 0))
-        pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0)
+        aw_dc = (pme_u - pme) * edc > 0.0  # clipped and the error pushes further out
+        pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0) if self.battery.any() else 0.0
         ew = wr - p.omega_r_ref
         bref_u = p.kp_beta * ew + S[XB].real
         bref = np.maximum(np.minimum(bref_u, p.beta_max), 0.0)
@@ -168,14 +168,13 @@ class TurbineBank:
         dS[XI] = np.where(lim | ext_mask, 0.0, e)
         dS[TH] = OMEGA0 * (p.kp_pll * ev + S[XP].real)
         dS[XP] = p.ki_pll * ev
-        pchop = np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
+        pchop = np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5) if vdc.max() > p.v_chop else 0.0
         dS[W] = (2.0 / p.tau_dc) * (pme + pbatt - pconv - pchop)
         dS[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
         dS[WR] = (paero - pme) / (2.0 * p.h_rotor * np.maximum(wr, 0.1))
         dS[B] = np.maximum(np.minimum((bref - beta) / p.tau_beta, p.rate_beta), -p.rate_beta)
         dS[XB] = np.where(aw_b, 0.0, p.ki_beta * ew)
-        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": paero,
-               "omega_meas": 1.0 + p.kp_pll * ev + S[XP].real, "vlim": lim}
+        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": paero, "vlim": lim}
         return dS, aux
 
     # ------------------------------------------------------------------ initialisation

@@ -96,6 +96,7 @@ class Run:
                    "visc_disabled": sc.sdn.visc_disabled, "dr_hold_s": sc.sdn.dr_hold_s,
                    "ak_timeout_s": sc.sdn.ak_timeout_s, "dynamic_routing": sc.sdn.dynamic_routing,
                    "reroute_on_port_status": sc.sdn.reroute_on_port_status, "failover": sc.sdn.failover,
+                   "fast_failover": sc.sdn.fast_failover,
                    "sdc_dead_s": sc.sdn.sdc_dead_s, "mirror_to_backup": sc.sdn.mirror_to_backup,
                    "backup_sdc": "sdc2" if sc.sdc.backup else None, "state_dir": str(self.out)}
         cfg_path = self._write_json("sdn_config.json", app_cfg)
@@ -276,8 +277,11 @@ class Run:
         tty = sys.stdout.isatty() and not self.quiet
         last_line = 0.0
         plant = self.procs["plant"]
+        end = self.t0 + self.scenario.duration_s
         while plant.poll() is None:
             now = time.time()
+            if now >= end:
+                self._stop_controller()  # the scenario is over: no decisions on the plant's last packets
             while pending and now >= self.t0 + pending[0].t:
                 event = pending.pop(0)
                 self.dispatch(event, now - self.t0)
@@ -290,6 +294,12 @@ class Run:
             raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
         self._progress(tty, final=True)
         self.finished.set()
+
+    def _stop_controller(self) -> None:
+        proc = self.procs.get("controller")
+        if proc is not None and proc.poll() is None and not getattr(self, "_controller_stopping", False):
+            self._controller_stopping = True
+            proc.send_signal(signal.SIGTERM)
 
     def _progress(self, tty: bool, final: bool = False) -> None:
         if self.quiet:
@@ -326,7 +336,8 @@ class Run:
                     proc.stdin.close()
                 except OSError:
                     pass
-            proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
+            if not (name == "controller" and getattr(self, "_controller_stopping", False)):
+                proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
             if name == "controller":
                 try:
                     proc.wait(timeout=5)

@@ -66,6 +66,7 @@ class SdnSpec(Strict):
     ak_timeout_s: float = Field(0.030, gt=0, le=1.0, description="no AK for this long counts as AK = 0")
     dynamic_routing: bool = Field(True, description="act on DR_i (reroute); false reproduces the no-DR case")
     reroute_on_port_status: bool = Field(False, description="also reroute at once on port-status link down")
+    fast_failover: bool = Field(False, description="pre-install OpenFlow fast-failover groups with detours")
     visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
     sdc_dead_s: float = Field(0.040, gt=0, le=1.0, description="an SDC is dead after this long without heartbeat")

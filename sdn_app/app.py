@@ -47,7 +47,7 @@ class SdviscApp(app_manager.OSKenApp):
         else:
             self._events_file = None
         self._last_publish = 0.0
-        self.threads.append(hub.spawn(self._timer_loop))
+        self._timer = hub.spawn(self._timer_loop)  # ends when STOPPING is set
 
     # ------------------------------------------------------------------ plumbing
     def _send(self, actions) -> None:

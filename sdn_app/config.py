@@ -58,6 +58,7 @@ class AppConfig(BaseModel):
     dr_hold_s: float = Field(0.040, gt=0, description="hold before DR_i is confirmed, s (paper: 40 ms)")
     ak_timeout_s: float = Field(0.030, gt=0, description="no AK for this long counts as AK = 0, s")
     dynamic_routing: bool = Field(True, description="act on DR_i by rerouting (false: detect and log only)")
+    fast_failover: bool = Field(False, description="pre-install fast-failover groups with detours (data-plane repair)")
     reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
     sdc_dead_s: float = Field(0.040, gt=0, description="an SDC is dead after this long without a heartbeat, s")

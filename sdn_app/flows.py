@@ -60,6 +60,30 @@ class PacketOut:
 
 
 TO_CONTROLLER = -1
+IN_PORT = -2  # OpenFlow's OFPP_IN_PORT: send back out of the port the packet came in on
+PRIORITY_DETOUR = 110
+
+
+@dataclass(frozen=True)
+class Group:
+    """Flow action: process the packet in group ``group_id``."""
+
+    group_id: int
+
+
+@dataclass(frozen=True)
+class GroupAdd:
+    """A fast-failover group: the first bucket whose watch port is live forwards the packet."""
+
+    dpid: int
+    group_id: int
+    buckets: tuple  # ((watch_port, (actions...)), ...)
+
+
+@dataclass(frozen=True)
+class GroupDelete:
+    dpid: int
+    group_id: int
 
 
 def base_flows(dpid: int, controller_vip: str) -> list[FlowAdd]:

@@ -30,6 +30,7 @@ from sdn_app import flows as fl
 from sdn_app.config import AppConfig
 from sdn_app.dr import DrMonitor
 from sdn_app.paths import build_graph, choose_path, hops, link_key, path_links
+from sdn_app.protection import protect_direction
 from sdn_app.tables import Tables, TurbineAddress
 from sdvisc import wire
 
@@ -48,6 +49,8 @@ class ActivePath:
     cookie: int
     dpids: list[int] = field(default_factory=list)
     reroutes: int = 0
+    groups: list[tuple[int, int]] = field(default_factory=list)  # (dpid, group id) of FF groups
+    installed: list = field(default_factory=list)  # the group and flow adds, for switch reconnects
 
 
 class Controller:
@@ -75,6 +78,8 @@ class Controller:
         self.events: list[dict] = []
         self.wire_stats = wire.DecodeStats()
         self.request_seq = 0
+        self.group_ids: dict[int, int] = {}
+        self.port_up: dict[tuple[str, int], bool] = {}
         for name, host in config.topology.hosts.items():
             if host.role != "turbine":
                 continue
@@ -180,11 +185,37 @@ class Controller:
             flows = fl.path_flows(hops(self.graph, active.path), self.dpids, self._host(active.sdc).ip, wt_ip,
                                   active.cookie)
             flows = self._guard_ingress(active, flows)
-            return flows + self._mirror_flows(active, flows)
+            return self._protect(active, flows + self._mirror_flows(active, flows))
         # served by a substitute SDC while addressing the primary's address
         return self._guard_ingress(active, fl.substitute_path_flows(
             hops(self.graph, active.path), self.dpids, self._addr(active.sdc), wt_ip,
             self._addr(self.config.primary_sdc), active.cookie))
+
+    def _next_group_id(self, dpid: int) -> int:
+        self.group_ids[dpid] = self.group_ids.get(dpid, 0) + 1
+        return self.group_ids[dpid]
+
+    def _protect(self, active: ActivePath, flows: list) -> list:
+        """With ``fast_failover``: FF groups and detour flows for both directions of the path;
+        returns group adds first (flows refer to them), then the flows."""
+        if not self.config.fast_failover:
+            return flows
+        sdc_ip, wt_ip = self._host(active.sdc).ip, self.tables.t1[active.wt].ip
+        path = active.path if active.path[0] == active.sdc else list(reversed(active.path))
+        groups, detours, out = [], [], list(flows)
+        for direction, (src, dst) in ((path, (sdc_ip, wt_ip)), (list(reversed(path)), (wt_ip, sdc_ip))):
+            replace, g, d = protect_direction(self.graph, self.dpids, direction, fl.udp_match(src, dst),
+                                              active.cookie, self.down_links, self._next_group_id)
+            groups += g
+            detours += d
+            by_dpid = {self.dpids[x]: acts for x, acts in replace.items()}
+            for k, f in enumerate(out):
+                if (f.dpid in by_dpid and f.match.get("ipv4_src") == src and f.match.get("ipv4_dst") == dst
+                        and len(f.actions) == 1 and isinstance(f.actions[0], fl.Output)):
+                    out[k] = fl.FlowAdd(f.dpid, f.priority, f.match, by_dpid[f.dpid], f.cookie)
+        active.groups = [(g.dpid, g.group_id) for g in groups]
+        self.counters["ff_groups"] += len(groups)
+        return groups + out + detours
 
     def _guard_ingress(self, active: ActivePath, flows: list) -> list:
         """Access control: on the OpenFlow switch where the turbine's packets enter, its upstream
@@ -233,22 +264,26 @@ class Controller:
         version = old.reroutes + 1 if old is not None else 0
         active = ActivePath(name, sdc, path, now, fl.turbine_cookie(wid, version))
         flows = self._flows_for(active)
-        active.dpids = sorted({f.dpid for f in flows})
+        active.installed = flows
+        active.dpids = sorted({f.dpid for f in flows if isinstance(f, fl.FlowAdd)})
         active.reroutes = version
         self.paths[name] = active
-        self.counters["flow_mods"] += len(flows)
+        self.counters["flow_mods"] += sum(isinstance(f, fl.FlowAdd) for f in flows)
         actions = flows + self._learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
         if old is not None:
-            self.counters["flow_deletes"] += len(old.dpids)
-            actions += [fl.FlowDelete(dpid, old.cookie) for dpid in old.dpids]
+            actions += self._delete(old)
         return actions
+
+    def _delete(self, active: ActivePath) -> list:
+        self.counters["flow_deletes"] += len(active.dpids)
+        return ([fl.FlowDelete(dpid, active.cookie) for dpid in active.dpids]
+                + [fl.GroupDelete(dpid, gid) for dpid, gid in active.groups])
 
     def _remove_path(self, name: str) -> list:
         active = self.paths.pop(name, None)
         if active is None:
             return []
-        self.counters["flow_deletes"] += len(active.dpids)
-        return [fl.FlowDelete(dpid, active.cookie) for dpid in active.dpids]
+        return self._delete(active)
 
     # ------------------------------------------------------------------ switch events
     def switch_up(self, dpid: int, now: float) -> list:
@@ -257,7 +292,7 @@ class Controller:
         self._event(now, "switch_up", switch=self.switch_by_dpid.get(dpid, hex(dpid)))
         actions: list = list(fl.base_flows(dpid, self.config.controller_vip))
         for active in self.paths.values():
-            actions += [f for f in self._flows_for(active) if f.dpid == dpid]
+            actions += [f for f in active.installed if f.dpid == dpid]
         return actions
 
     def port_status(self, dpid: int, port: int, up: bool, now: float) -> list:
@@ -266,13 +301,17 @@ class Controller:
         key = self.port_links.get((switch, port)) if switch else None
         if key is None:
             return []
+        self.port_up[(switch, port)] = up
+        ends = [(n, p) for (n, p), k in self.port_links.items() if k == key and n in self.dpids]
+        link_up = all(self.port_up.get(end, True) for end in ends)  # up only when every visible end is
         was_down = key in self.down_links
-        if up and was_down:
+        if link_up and was_down:
             self.down_links.discard(key)
-        elif not up and not was_down:
+        elif not link_up and not was_down:
             self.down_links.add(key)
         else:
             return []
+        up = link_up
         self._event(now, "link_up" if up else "link_down", link=sorted(key), switch=switch, port=port)
         for name in self.tables.t1:
             self._refresh_link_ok(name)

@@ -9,7 +9,11 @@ def _action(a, ofp, parser):
     if isinstance(a, fl.Output):
         if a.port == fl.TO_CONTROLLER:
             return parser.OFPActionOutput(ofp.OFPP_CONTROLLER, ofp.OFPCML_NO_BUFFER)
+        if a.port == fl.IN_PORT:
+            return parser.OFPActionOutput(ofp.OFPP_IN_PORT, 0)
         return parser.OFPActionOutput(a.port, 0)
+    if isinstance(a, fl.Group):
+        return parser.OFPActionGroup(a.group_id)
     if isinstance(a, fl.SetField):
         return parser.OFPActionSetField(**{a.name: a.value})
     raise TypeError(f"unknown flow action {a!r}")
@@ -39,4 +43,11 @@ def to_messages(action, datapath) -> list:
             datapath=datapath, buffer_id=ofp.OFP_NO_BUFFER, in_port=ofp.OFPP_CONTROLLER,
             actions=[parser.OFPActionOutput(action.port, 0)], data=action.data,
         )]
+    if isinstance(action, fl.GroupAdd):
+        buckets = [parser.OFPBucket(weight=0, watch_port=watch, watch_group=ofp.OFPG_ANY,
+                                    actions=[_action(a, ofp, parser) for a in acts])
+                   for watch, acts in action.buckets]
+        return [parser.OFPGroupMod(datapath, ofp.OFPGC_ADD, ofp.OFPGT_FF, action.group_id, buckets)]
+    if isinstance(action, fl.GroupDelete):
+        return [parser.OFPGroupMod(datapath, ofp.OFPGC_DELETE, ofp.OFPGT_FF, action.group_id, [])]
     raise TypeError(f"unknown action {action!r}")

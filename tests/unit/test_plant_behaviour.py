@@ -30,8 +30,10 @@ def _visc_plant(visc_params=None, activate=True, **grid):
     return p
 
 
-def _sc_plant(**grid):
+def _sc_plant(h_sc=None, **grid):
     pp = PlantParams(sc_connected=True)
+    if h_sc is not None:
+        pp.condenser.h = h_sc
     for k, v in grid.items():
         setattr(pp.grid, k, v)
     return Plant(pp)
@@ -125,7 +127,7 @@ def test_e_load_step_battery():
         r = p.run_offline(4.0, events=[(1.0, lambda q: q.load_step(mw))], record_every=10)
         return (r["f_pcc"].min() - 1.0) * 50.0, r["v_dc"][:, VISC].min()
     g = dict(h_grid=5.0, s_grid_mva=1000.0)
-    sc = run(_sc_plant(**g), 100.0)
+    sc = run(_sc_plant(h_sc=4.0, **g), 100.0)
     v = run(_visc_plant(ViscParams(h=4.0), **g), 100.0)
     pb = _visc_plant(ViscParams(h=4.0), **g)
     pb.set_battery(VISC, True)
