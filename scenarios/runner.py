@@ -60,6 +60,7 @@ class Run:
         self.datapath = default_datapath()
         self.exited_early: dict[str, int] = {}
         self.links_down: set[tuple[str, str]] = set()
+        self.killed: set[str] = set()
 
     # ------------------------------------------------------------------ set-up
     def _say(self, text: str) -> None:
@@ -100,13 +101,25 @@ class Run:
                    "sdc_dead_s": sc.sdn.sdc_dead_s, "mirror_to_backup": sc.sdn.mirror_to_backup,
                    "backup_sdc": "sdc2" if sc.sdc.backup else None, "state_dir": str(self.out)}
         cfg_path = self._write_json("sdn_config.json", app_cfg)
-        self._popen("controller", [self.python, "-m", "sdn_app", "--config", str(cfg_path), "--ofp-port", str(port)])
-        self._wait_listening(port)
+        app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
+        if sc.sdn.redundancy:
+            port2, peer_a, peer_b = _free_port(), _free_port(), _free_port()
+            self._popen("controller", app + ["--ofp-port", str(port), "--role", "master", "--instance", "1",
+                                             "--peer", f"{peer_a}:{peer_b}"])
+            self._popen("controller2", app + ["--ofp-port", str(port2), "--role", "slave", "--instance", "2",
+                                              "--peer", f"{peer_b}:{peer_a}"])
+            self._wait_listening(port, "controller")
+            self._wait_listening(port2, "controller2")
+        else:
+            self._popen("controller", app + ["--ofp-port", str(port)])
+            self._wait_listening(port, "controller")
         self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
         self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
                            waitConnected=False)
         self.net.addController("c0", controller=RemoteController, ip="127.0.0.1", port=port)
+        if sc.sdn.redundancy:
+            self.net.addController("c1", controller=RemoteController, ip="127.0.0.1", port=port2)
         self.net.build()
         self.net.start()
         for sw in self.net.switches:
@@ -119,11 +132,11 @@ class Run:
             host.cmd(f"arp -s {CONTROLLER_VIP} {CONTROLLER_VMAC}")
         self._wait_switches()
 
-    def _wait_listening(self, port: int) -> None:
+    def _wait_listening(self, port: int, name: str) -> None:
         deadline = time.time() + SWITCH_CONNECT_TIMEOUT_S
         while time.time() < deadline:
-            if self.procs["controller"].poll() is not None:
-                raise RunError(f"SDN app exited with {self.procs['controller'].returncode}; see {self.out}/controller.log")
+            if self.procs[name].poll() is not None:
+                raise RunError(f"SDN app exited with {self.procs[name].returncode}; see {self.out}/{name}.log")
             with socket.socket() as s:
                 if s.connect_ex(("127.0.0.1", port)) == 0:
                     return
@@ -136,17 +149,28 @@ class Run:
         while time.time() < deadline:
             if self.procs["controller"].poll() is not None:
                 raise RunError(f"SDN app exited with {self.procs['controller'].returncode}; see {self.out}/controller.log")
-            state = self.sdn_state()
-            if state and want <= set(state["tables"].get("connected", [])):
+            states = [self._read_state(n) for n in self._sdn_state_files()]
+            if states and all(st and want <= set(st["tables"].get("connected", [])) for st in states):
                 return
             time.sleep(0.1)
         raise RunError(f"switches did not connect to the SDN app within {SWITCH_CONNECT_TIMEOUT_S:.0f} s")
 
-    def sdn_state(self) -> dict | None:
+    def _sdn_state_files(self) -> list[str]:
+        return ["sdn_state.json"] + (["sdn2_state.json"] if self.scenario.sdn.redundancy else [])
+
+    def _read_state(self, name: str) -> dict | None:
         try:
-            return json.loads((self.out / "sdn_state.json").read_text())
+            return json.loads((self.out / name).read_text())
         except (OSError, json.JSONDecodeError):
             return None
+
+    def sdn_state(self) -> dict | None:
+        """The live view of the SDN app in charge (the master, with a redundant pair)."""
+        states = [s for s in (self._read_state(n) for n in self._sdn_state_files()) if s]
+        if not states:
+            return None
+        masters = [s for s in states if s.get("role") in ("master", "equal")]
+        return max(masters or states, key=lambda s: (s.get("generation", 0), s.get("t_wall", 0)))
 
     def plant_status(self) -> dict | None:
         try:
@@ -221,10 +245,11 @@ class Run:
                 self.set_link(a, b, True)
             record["links"] = down
         elif kind == "kill":
-            name = "controller" if event.process == "controller" else f"{event.host}.{event.process}"
+            name = event.process if event.process.startswith("controller") else f"{event.host}.{event.process}"
             proc = self.procs.get(name)
             if proc is not None and proc.poll() is None:
                 proc.kill()
+                self.killed.add(name)
         elif kind == "set":
             self._to_stdin("plant", {"type": "set", "param": event.param, "value": event.value})
         elif kind == "load_step":
@@ -296,10 +321,13 @@ class Run:
         self.finished.set()
 
     def _stop_controller(self) -> None:
-        proc = self.procs.get("controller")
-        if proc is not None and proc.poll() is None and not getattr(self, "_controller_stopping", False):
-            self._controller_stopping = True
-            proc.send_signal(signal.SIGTERM)
+        if getattr(self, "_controller_stopping", False):
+            return
+        self._controller_stopping = True
+        for name in ("controller", "controller2"):
+            proc = self.procs.get(name)
+            if proc is not None and proc.poll() is None:
+                proc.send_signal(signal.SIGTERM)
 
     def _progress(self, tty: bool, final: bool = False) -> None:
         if self.quiet:
@@ -325,7 +353,7 @@ class Run:
             if code is not None and name != "plant":
                 self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
         # the SDN app first, so the end of the plant's packets is not mistaken for a failure
-        order = ["owfcc.owfcc", "controller", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \
+        order = ["owfcc.owfcc", "controller", "controller2", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \
                 [n for n in self.procs if n.endswith(".tcpdump")]
         for name in order:
             proc = self.procs.get(name)
@@ -336,9 +364,9 @@ class Run:
                     proc.stdin.close()
                 except OSError:
                     pass
-            if not (name == "controller" and getattr(self, "_controller_stopping", False)):
+            if not (name.startswith("controller") and getattr(self, "_controller_stopping", False)):
                 proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
-            if name == "controller":
+            if name.startswith("controller"):
                 try:
                     proc.wait(timeout=5)
                 except subprocess.TimeoutExpired:

@@ -67,6 +67,7 @@ class SdnSpec(Strict):
     dynamic_routing: bool = Field(True, description="act on DR_i (reroute); false reproduces the no-DR case")
     reroute_on_port_status: bool = Field(False, description="also reroute at once on port-status link down")
     fast_failover: bool = Field(False, description="pre-install OpenFlow fast-failover groups with detours")
+    redundancy: bool = Field(False, description="run a second SDN app instance as OpenFlow slave that takes over")
     visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
     sdc_dead_s: float = Field(0.040, gt=0, le=1.0, description="an SDC is dead after this long without heartbeat")
@@ -129,7 +130,7 @@ class RestoreLinks(_Event):
 class Kill(_Event):
     do: Literal["kill"]
     host: str
-    process: Literal["sdc", "controller", "owfcc"]
+    process: Literal["sdc", "controller", "controller2", "owfcc"]
 
 
 class SetParam(_Event):

@@ -99,9 +99,12 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     sc = run.scenario
     plant = _read_json(out / "plant_stats.json")
     sdcs = {p.stem.split("_")[0]: _read_json(p) for p in sorted(out.glob("sdc*_stats.json"))}
-    sdn = _read_json(out / "sdn_state.json")
+    sdn_states = [st for st in (_read_json(out / "sdn_state.json"), _read_json(out / "sdn2_state.json")) if st]
+    in_charge = [st for st in sdn_states if st.get("role") in ("master", "equal", None)]
+    sdn = max(in_charge or sdn_states, key=lambda st: (st.get("generation", 0), st.get("t_wall", 0)), default={})
     events = list(run.timeline_events)
     events += _wall_to_t(_read_jsonl(out / "sdn_events.jsonl"), run.t0, "sdn_app")
+    events += _wall_to_t(_read_jsonl(out / "sdn2_events.jsonl"), run.t0, "sdn_app2")
     events += _wall_to_t(_read_jsonl(out / "owfcc_events.jsonl"), run.t0, "owfcc")
     events += [dict(e, source="plant") for e in plant.get("events", [])]
     for name, sdc in sdcs.items():
@@ -156,9 +159,13 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "turbines": turbines,
         "events": events,
         "recoveries": recoveries([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
-                                 plant.get("turbines", {}), events, run.t0, sc.duration_s),
-        "processes_exited_early": dict(run.exited_early),
+                                 plant.get("turbines", {}), [e for e in events if not e.get("shadow")], run.t0,
+                                 sc.duration_s),
+        "processes_exited_early": {n: c for n, c in run.exited_early.items() if n not in run.killed},
+        "processes_killed": sorted(run.killed),
         "openflow": sdn.get("openflow", {}),
+        "controllers": {f"instance{st.get('instance', 1)}": {"role": st.get("role"), "generation": st.get("generation"),
+                                                            "openflow": st.get("openflow", {})} for st in sdn_states},
         "sdn_counters": sdn.get("counters", {}),
         "tables": {k: sdn.get("tables", {}).get(k, {}) for k in ("T1", "T2", "T3")},
         "wire_rejected": {"plant": plant.get("rx_wire", {}), **{s: d.get("rx_wire", {}) for s, d in sdcs.items()},

@@ -19,6 +19,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--ofp-port", type=int, default=6653, help="OpenFlow listen port (default 6653)")
     parser.add_argument("--listen-host", default="127.0.0.1", help="OpenFlow listen address")
     parser.add_argument("--log-level", default="INFO", choices=["DEBUG", "INFO", "WARNING", "ERROR"])
+    parser.add_argument("--role", default="equal", choices=["equal", "master", "slave"],
+                        help="OpenFlow role (master/slave for a redundant pair)")
+    parser.add_argument("--instance", type=int, default=1, help="instance number (file names, events)")
+    parser.add_argument("--peer", help="LISTEN:SEND UDP ports on 127.0.0.1 for the master's heartbeat")
     args = parser.parse_args(argv)
 
     from sdn_app.config import ConfigError, load_config
@@ -29,6 +33,10 @@ def main(argv: list[str] | None = None) -> int:
         print(f"sdn_app: {exc}", file=sys.stderr)
         return 1
     os.environ["SDVISC_SDN_CONFIG"] = os.path.abspath(args.config)
+    os.environ["SDVISC_SDN_ROLE"] = args.role
+    os.environ["SDVISC_SDN_INSTANCE"] = str(args.instance)
+    if args.peer:
+        os.environ["SDVISC_SDN_PEER"] = args.peer
 
     from os_ken.lib import hub
 
@@ -47,7 +55,16 @@ def main(argv: list[str] | None = None) -> int:
         sys.exit(0)
 
     signal.signal(signal.SIGTERM, on_term)
-    AppManager.run_apps(["sdn_app.app", "os_ken.controller.ofp_handler"])
+    # what AppManager.run_apps does, minus its final thread.kill() (os-ken 4.2's HubThread has none)
+    manager = AppManager.get_instance()
+    manager.load_apps(["sdn_app.app", "os_ken.controller.ofp_handler"])
+    services = manager.instantiate_apps(**manager.create_contexts())
+    try:
+        hub.joinall(services)
+    except SystemExit:
+        pass
+    finally:
+        manager.close()
     return 0
 
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import socket
 import time
 from collections import Counter
 from pathlib import Path
@@ -22,8 +23,12 @@ from os_ken.ofproto import ofproto_v1_3
 from sdn_app.config import load_config
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
+from sdn_app.redundancy import RoleState
 
 CONFIG_ENV = "SDVISC_SDN_CONFIG"
+ROLE_ENV = "SDVISC_SDN_ROLE"  # master | slave | equal (default: equal, a single controller)
+INSTANCE_ENV = "SDVISC_SDN_INSTANCE"  # 1 or 2: file names and event source
+PEER_ENV = "SDVISC_SDN_PEER"  # "listen_port:send_port" on 127.0.0.1 for the peer heartbeat
 STOPPING = False  # set by the launcher's SIGTERM handler: no more decisions while shutting down
 TICK_S = 0.002
 PUBLISH_S = 0.1
@@ -37,13 +42,26 @@ class SdviscApp(app_manager.OSKenApp):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.config = load_config(os.environ[CONFIG_ENV])
-        self.logic = Controller(self.config, now=time.time())
+        now = time.time()
+        self.logic = Controller(self.config, now=now)
         self.datapaths: dict[int, object] = {}
         self.of_counts: Counter = Counter()
+        self.instance = int(os.environ.get(INSTANCE_ENV, "1"))
+        self.prefix = "sdn" if self.instance == 1 else f"sdn{self.instance}"
+        self.roles = RoleState(role=os.environ.get(ROLE_ENV, "equal"), t_start=now)
+        self._peer_sock = None
+        self._peer_send = None
+        if os.environ.get(PEER_ENV):
+            listen, send = (int(x) for x in os.environ[PEER_ENV].split(":"))
+            self._peer_sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            self._peer_sock.bind(("127.0.0.1", listen))
+            self._peer_sock.setblocking(False)
+            self._peer_send = ("127.0.0.1", send)
+        self._last_peer_tx = 0.0
         self.state_dir = Path(self.config.state_dir) if self.config.state_dir else None
         if self.state_dir:
             self.state_dir.mkdir(parents=True, exist_ok=True)
-            self._events_file = open(self.state_dir / "sdn_events.jsonl", "a", buffering=1)  # noqa: SIM115
+            self._events_file = open(self.state_dir / f"{self.prefix}_events.jsonl", "a", buffering=1)  # noqa: SIM115
         else:
             self._events_file = None
         self._last_publish = 0.0
@@ -51,6 +69,10 @@ class SdviscApp(app_manager.OSKenApp):
 
     # ------------------------------------------------------------------ plumbing
     def _send(self, actions) -> None:
+        if not self.roles.sends:
+            self.of_counts["suppressed_as_slave"] += len(actions)
+            self._flush_events()
+            return
         for action in actions:
             dp = self.datapaths.get(action.dpid)
             if dp is None:
@@ -66,21 +88,64 @@ class SdviscApp(app_manager.OSKenApp):
         events = self.logic.take_events()
         if self._events_file:
             for event in events:
+                if not self.roles.sends:
+                    event["shadow"] = True  # decided by the slave, not sent
                 self._events_file.write(json.dumps(event) + "\n")
 
     def _publish(self) -> None:
         if not self.state_dir:
             return
         state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
+                 "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
                  "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
                  "t_wall": time.time()}
-        tmp = self.state_dir / "sdn_state.json.tmp"
+        tmp = self.state_dir / f"{self.prefix}_state.json.tmp"
         tmp.write_text(json.dumps(state, indent=1, sort_keys=True))
-        tmp.replace(self.state_dir / "sdn_state.json")
+        tmp.replace(self.state_dir / f"{self.prefix}_state.json")
+
+    def _peer(self, now: float) -> None:
+        """Peer heartbeat: the master announces itself; a slave takes over when it goes silent."""
+        if self._peer_sock is None:
+            return
+        if self.roles.role == "master" and now - self._last_peer_tx >= self.roles.heartbeat_s:
+            self._last_peer_tx = now
+            try:
+                self._peer_sock.sendto(f"sdvisc-master {self.roles.generation}".encode(), self._peer_send)
+            except OSError:
+                pass
+        while True:
+            try:
+                data, _ = self._peer_sock.recvfrom(256)
+            except (BlockingIOError, OSError):
+                break
+            parts = data.decode(errors="replace").split()
+            if len(parts) == 2 and parts[0] == "sdvisc-master" and parts[1].isdigit():
+                self.roles.on_peer_heartbeat(int(parts[1]), now)
+        if self.roles.should_take_over(now):
+            generation = self.roles.take_over()
+            for dp in self.datapaths.values():
+                self._request_role(dp)
+            self.logic._event(now, "controller_takeover", instance=self.instance, generation=generation,
+                              t_last_peer=self.roles.t_peer)
+            self._flush_events()
+
+    def _request_role(self, dp) -> None:
+        ofp, parser = dp.ofproto, dp.ofproto_parser
+        role = {"master": ofp.OFPCR_ROLE_MASTER, "slave": ofp.OFPCR_ROLE_SLAVE}.get(self.roles.role)
+        if role is None:
+            return
+        dp.send_msg(parser.OFPRoleRequest(dp, role, self.roles.generation))
+        self.of_counts["tx_OFPRoleRequest"] += 1
+        if self.roles.role == "slave":  # receive what the master receives, to keep the same state
+            pin = (1 << ofp.OFPR_NO_MATCH) | (1 << ofp.OFPR_ACTION)
+            ps = (1 << ofp.OFPPR_ADD) | (1 << ofp.OFPPR_DELETE) | (1 << ofp.OFPPR_MODIFY)
+            dp.send_msg(parser.OFPSetAsync(dp, [pin, pin], [ps, ps], [0, 0]))
+            self.of_counts["tx_OFPSetAsync"] += 1
 
     def _timer_loop(self) -> None:
         while not STOPPING:
             now = time.time()
+            self._peer(now)
             self._send(self.logic.tick(now))
             if now - self._last_publish >= PUBLISH_S:
                 self._last_publish = now
@@ -104,6 +169,7 @@ class SdviscApp(app_manager.OSKenApp):
         dp = ev.msg.datapath
         self.of_counts["rx_features"] += 1
         self.datapaths[dp.id] = dp
+        self._request_role(dp)
         self._send(self.logic.switch_up(dp.id, time.time()))
 
     @set_ev_cls(ofp_event.EventOFPPacketIn, MAIN_DISPATCHER)
