@@ -45,7 +45,7 @@ class Condenser:
 
     def rhs(self, x, v_term: complex, v_reg: float):
         p = self.p
-        delta, w, eq1, eq2, ed2, xll, efd = x.real.tolist()
+        delta, w, eq1, eq2, ed2, xll, efd = x.real.tolist() if isinstance(x, np.ndarray) else [z.real for z in x]
         v_term = complex(v_term)
         i_net = (complex(eq2, -ed2) * cmath.exp(1j * delta) - v_term) / self.z2
         im = i_net * 1j * cmath.exp(-1j * delta)

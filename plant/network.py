@@ -199,7 +199,16 @@ class Network:
         self.zinv = sla.lu_solve(self.lu, np.eye(self.n_nodes, dtype=complex))
         self.y_grid = 1.0 / self.z_grid()
         self.y_sc = 1.0 / self.z_sc_source() if self.sc_connected else 0.0
-        # rows needed every step: turbine terminals, pcc, sc, os_mv
+        # Reduced solve used every step: only the turbine terminals, the pcc and the sc node carry
+        # injections and only their voltages are needed by the dynamics, so
+        #   [v_turbines, V_pcc, V_sc] = zred @ u,  u = [i_turb (turbine base), E_g Y_g - I_load, E'' Y''],
+        # with the turbine-base scaling and the plugged mask folded into the columns (one (N+2)^2
+        # complex mat-vec). zcols @ u gives every node voltage (outputs only).
+        self.red_idx = np.r_[np.arange(self.n), self.pcc, self.sc]
+        scale = np.r_[self.k_t * self.plugged, 1.0, 1.0]
+        self.zcols = np.ascontiguousarray(self.zinv[:, self.red_idx] * scale)
+        self.zred = np.ascontiguousarray(self.zcols[self.red_idx])
+        self.all_plugged = bool(self.plugged.all())
         self.n_factorizations += 1
         self.dirty = False
 
@@ -232,6 +241,14 @@ class Network:
         inj[self.pcc] = e_grid * self.y_grid - i_load
         inj[self.sc] = e_sc * self.y_sc
         return inj
+
+    def reduced_u(self, i_turb, e_grid: complex, e_sc: complex, i_load: complex) -> np.ndarray:
+        """Source vector u of the reduced solve (see ``factorize``)."""
+        u = np.empty(self.n + 2, dtype=complex)
+        u[: self.n] = i_turb
+        u[self.n] = e_grid * self.y_grid - i_load
+        u[self.n + 1] = e_sc * self.y_sc
+        return u
 
     def solve(self, inj: np.ndarray) -> np.ndarray:
         """V = Y^-1 I with the pre-factorised Y (one mat-vec with the stored inverse)."""

@@ -8,6 +8,7 @@ The network is algebraic and solved at every stage with the pre-factorised Y (ne
 
 from __future__ import annotations
 
+import cmath
 from collections.abc import Callable
 
 import numpy as np
@@ -43,7 +44,7 @@ class Plant:
     """Software stand-in for the RTDS wind-farm model (see docs/plant.md)."""
 
     def __init__(self, params: PlantParams | None = None, n_turbines: int = 50, step_s: float = 0.67e-3,
-                 substeps: int = 1, method: str = "etd2"):
+                 substeps: int = 1, method: str = "etd2", slow_every: int = 10):
         self.params = params or PlantParams()
         self.n = n = int(n_turbines)
         self.step_s = float(step_s)
@@ -65,6 +66,10 @@ class Plant:
         self.size = self.o_pll + 2
         self._cache = None
         self._etd = None
+        self._mode_key = None
+        self.slow_every = max(1, int(slow_every))
+        self._slow_keep = False
+        self._slow_next = 0
         self._init_steady_state()
 
     # ================================================================== initialisation
@@ -105,27 +110,39 @@ class Plant:
         self._init_steady_state()
 
     # ================================================================== right-hand side
+    def _mode_info(self):
+        """(ext mask, any ext, any remote), recomputed only when the mode array changed."""
+        key = self.tb.mode.tobytes()
+        if self._mode_key != key:
+            ext = self.tb.mode != T.GFL
+            self._mode_val = (ext, bool(ext.any()), bool((self.tb.mode == T.REMOTE).any()))
+            self._mode_key = key
+        return self._mode_val
+
     def _rhs(self, X, xl, want_aux: bool = False):
         n, net, tb, g = self.n, self.net, self.tb, self.params.grid
         S = X[: self.o_sc].reshape(T.NS, n)
-        xsc = X[self.o_sc:self.o_g]
-        thg, wg, pm = X[self.o_g].real, X[self.o_g + 1].real, X[self.o_g + 2].real
-        e_grid = g.e_grid * np.exp(1j * thg)
-        e_sc = self.sc.e_net(xsc) if net.sc_connected else 0.0
+        tail = X[self.o_sc:].tolist()  # condenser, grid source, PCC PLL: Python scalars
+        xsc = tail[:SC_NX]
+        thg, wg, pm = tail[SC_NX].real, tail[SC_NX + 1].real, tail[SC_NX + 2].real
+        thp, xpp = tail[SC_NX + 3].real, tail[SC_NX + 4].real
+        e_grid = g.e_grid * cmath.exp(1j * thg) if thg != 0.0 else complex(g.e_grid)
+        e_sc = self.sc.e_net(xsc) if net.sc_connected else 0.0j
         vl = self._v_pcc_last
-        i_load = np.conj(self.load_s) * vl / max(abs(vl) ** 2, 0.49)
-        active = net.plugged
-        i_t = np.where(active, S[T.IF], 0.0)
-        V = net.solve(net.injections(i_t, e_grid, e_sc, i_load))
-        v = V[:n]
-        ext = tb.mode != T.GFL
+        i_load = self.load_s.conjugate() * vl / max(abs(vl) ** 2, 0.49) if self.load_s else 0.0j
+        i_t = S[T.IF].copy() if net.all_plugged else np.where(net.plugged, S[T.IF], 0.0)
+        Vr = net.zred @ net.reduced_u(i_t, e_grid, e_sc, i_load)
+        v = Vr[:n]
+        vp, vsc = Vr[n:].tolist()
+        ext, any_ext, _ = self._mode_info()
         vext = tb.v_hold
-        if self.params.turbine.remote_apply == "i_ref":
+        if any_ext and self.params.turbine.remote_apply == "i_ref":
             tp = self.params.turbine
             ih = tb.i_hold
             vext = np.where(tb.mode == T.REMOTE, v + (tp.rf + 1j * tp.lf) * ih + tp.kpc * (ih - S[T.IF]), vext)
         dxl = None
         law_out = None
+        active = net.plugged
         if self.visc_idx.size:
             law = _law()
             meas = law.Measurements(**self._meas_arrays(S, v, self.visc_idx, None))
@@ -136,35 +153,37 @@ class Plant:
                 dxl = np.where(off, 0.0, dxl)
             vext = vext.copy()
             vext[self.visc_idx] = np.asarray(_get(law_out, "v_ref_d")) + 1j * np.asarray(_get(law_out, "v_ref_q"))
-        dS, aux = tb.rhs(S, v, vext, ext)
-        if not active.all():
-            dS[:, ~active] = 0.0
         dX = np.empty_like(X)
-        dX[: self.o_sc] = dS.ravel()
+        dS, aux = tb.rhs(S, v, vext, ext, any_ext, out=dX[: self.o_sc].reshape(T.NS, n))
+        if not net.all_plugged:
+            dS[:, ~active] = 0.0
         if net.sc_connected:
-            vreg = abs(V[net.pcc]) if self.sc.p.avr_bus == "pcc" else abs(V[net.sc])
-            dsc, i_sc = self.sc.rhs(xsc, V[net.sc], vreg)
+            vreg = abs(vp) if self.sc.p.avr_bus == "pcc" else abs(vsc)
+            dsc, i_sc = self.sc.rhs(xsc, vsc, vreg)
         else:
-            dsc, i_sc = np.zeros(SC_NX, dtype=complex), 0.0j
-        dX[self.o_sc:self.o_g] = dsc
-        vp = V[net.pcc]
+            dsc, i_sc = [0.0] * SC_NX, 0.0j
         if g.h_grid > 0:
             ig = (e_grid - vp) * net.y_grid
-            pe = (e_grid * np.conj(ig)).real * g.s_base_mva / g.s_grid_mva
-            dX[self.o_g] = OMEGA0 * (wg - 1.0)
-            dX[self.o_g + 1] = (pm - pe - g.d_grid * (wg - 1.0)) / (2.0 * g.h_grid)
-            dX[self.o_g + 2] = (self.pm0 - (wg - 1.0) / g.r_gov - pm) / g.t_gov
+            pe = (e_grid * ig.conjugate()).real * g.s_base_mva / g.s_grid_mva
+            dg = [OMEGA0 * (wg - 1.0), (pm - pe - g.d_grid * (wg - 1.0)) / (2.0 * g.h_grid),
+                  (self.pm0 - (wg - 1.0) / g.r_gov - pm) / g.t_gov]
         else:
-            dX[self.o_g:self.o_g + 3] = 0.0
+            dg = [0.0, 0.0, 0.0]
         tp = self.params.turbine
-        ev = (vp * np.exp(-1j * X[self.o_pll].real)).imag / max(abs(vp), 0.1)
-        dX[self.o_pll] = OMEGA0 * (tp.kp_pll * ev + X[self.o_pll + 1].real)
-        dX[self.o_pll + 1] = tp.ki_pll * ev
+        ev = (vp * cmath.exp(-1j * thp)).imag / max(abs(vp), 0.1)
+        dX[self.o_sc:] = dsc + dg + [OMEGA0 * (tp.kp_pll * ev + xpp), tp.ki_pll * ev]
         if want_aux:
-            aux.update(V=V, v=v, i=i_t, i_sc=i_sc, e_grid=e_grid, e_sc=e_sc, i_load=i_load, law_out=law_out,
-                       f_pcc=1.0 + tp.kp_pll * ev + X[self.o_pll + 1].real)
+            aux.update(Vr=Vr, v=v, i=i_t, i_sc=i_sc, e_grid=e_grid, e_sc=e_sc, i_load=i_load, law_out=law_out,
+                       v_pcc=vp, v_sc=vsc, f_pcc=1.0 + tp.kp_pll * ev + xpp)
             return dX, dxl, aux
         return dX, dxl, None
+
+    def _full_v(self, aux):
+        """All node voltages of a cached evaluation (outputs only; the dynamics use the reduced solve)."""
+        if "V" not in aux:
+            net = self.net
+            aux["V"] = net.zcols @ net.reduced_u(aux["i"], aux["e_grid"], aux["e_sc"], aux["i_load"])
+        return aux["V"]
 
     def _meas_arrays(self, S, v, idx, aux):
         i = S[T.IF, idx]
@@ -179,7 +198,11 @@ class Plant:
     # ================================================================== integration
     def _eval_cached(self):
         if self._cache is None:
-            self.tb.hold_slow(self.X[: self.o_sc].reshape(T.NS, self.n))
+            # slow terms: re-evaluated every ``slow_every`` steps and after any command/event
+            if not self._slow_keep or self.tb.slow is None or self.k >= self._slow_next:
+                self.tb.hold_slow(self.X[: self.o_sc].reshape(T.NS, self.n))
+                self._slow_next = self.k + self.slow_every
+            self._slow_keep = False
             self._cache = self._rhs(self.X, self.xl, want_aux=True)
         return self._cache
 
@@ -194,18 +217,22 @@ class Plant:
         X, xl = self.X, self.xl
         if self.method == "etd2":
             E, phi1, phi2 = self._etd_coeffs(h)
-            c = self._c
         for s in range(self.substeps):
             if s == 0:
                 k1, l1, aux = self._eval_cached()
             else:
                 k1, l1, aux = self._rhs(X, xl, want_aux=True)
-            self._v_pcc_last = aux["V"][self.net.pcc]
+            self._v_pcc_last = aux["v_pcc"]
             if self.method == "etd2":
-                n1 = k1 + c * X
-                a = E * X + phi1 * n1
+                # Cox-Matthews ETD2RK with the diagonal linear part -c:  a = E X + phi1 (k1 + c X),
+                # X+ = a + phi2 (k2 + c a - k1 - c X); since phi1 c = 1 - E this is
+                # a = X + phi1 k1,  X+ = a + phi2 (k2 - E k1)  (c = 0: Heun)
+                a = phi1 * k1
+                a += X
                 k2, l2, _ = self._rhs(a, self._axpy(xl, h, l1))
-                X = a + phi2 * (k2 + c * a - n1)
+                k2 -= E * k1
+                k2 *= phi2
+                X = a + k2
                 if xl is not None:
                     xl = _tree(xl, _tree(l1, l2, lambda p, q: p + q), lambda p, q: p + (0.5 * h) * q)
             elif self.method == "rk2":
@@ -225,8 +252,9 @@ class Plant:
         self.X, self.xl = X, xl
         self.k += 1
         self._cache = None
+        self._slow_keep = True  # only the step itself may keep the held slow terms
         self._eval_cached()
-        self._v_pcc_last = self._cache[2]["V"][self.net.pcc]
+        self._v_pcc_last = self._cache[2]["v_pcc"]
 
     def _etd_coeffs(self, h):
         """Exponential (ETD2RK, Cox-Matthews) coefficients for the stiff current-control pole.
@@ -268,15 +296,24 @@ class Plant:
     def measurements(self) -> dict:
         """Per-turbine measurement arrays (turbine p.u.): v_d, v_q, i_d, i_q, p, q, v_dc, omega_meas."""
         _, _, aux = self._eval_cached()
-        S = self.X[: self.o_sc].reshape(T.NS, self.n)
-        return self._meas_arrays(S, aux["v"], np.arange(self.n), aux)
+        m = aux.get("meas")
+        if m is None:
+            S = self.X[: self.o_sc].reshape(T.NS, self.n)
+            v, i = aux["v"], aux["i"]
+            s = v * i.conj()
+            om = aux["ev"] * self.params.turbine.kp_pll
+            om += S[T.XP].real
+            om += 1.0
+            m = aux["meas"] = {"v_d": v.real, "v_q": v.imag, "i_d": i.real, "i_q": i.imag, "p": s.real,
+                               "q": s.imag, "v_dc": aux["vdc"], "omega_meas": om}
+        return dict(m)
 
     def outputs(self) -> dict:
         """Scalar and per-turbine quantities for time series (see docs/plant.md for units)."""
         _, _, aux = self._eval_cached()
         net, n = self.net, self.n
         S = self.X[: self.o_sc].reshape(T.NS, n)
-        V, v, i = aux["V"], aux["v"], aux["i"]
+        V, v, i = self._full_v(aux), aux["v"], aux["i"]
         s_wt = v * np.conj(i)
         i_sc = aux["i_sc"]
         s_sc = V[net.sc] * np.conj(i_sc)
@@ -505,7 +542,7 @@ class Plant:
         X = y[: self.size] + 1j * y[self.size:2 * self.size]
         xl = None if self.xl is None else y[2 * self.size:].reshape(np.shape(self.xl))
         dX, dxl, aux = self._rhs(X, xl, want_aux=True)
-        self._v_pcc_last = aux["V"][self.net.pcc]
+        self._v_pcc_last = aux["v_pcc"]
         parts = [dX.real, dX.imag]
         if dxl is not None:
             parts.append(np.ravel(dxl))

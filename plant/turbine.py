@@ -48,6 +48,8 @@ IF, XI, TH, XP, W, XD, WR, B, XB = range(9)
 NS = 9
 
 GFL, HD_VISC, REMOTE = 0, 1, 2
+_min = np.minimum.reduce
+_max = np.maximum.reduce
 MODES = {"grid_following": GFL, "hd_visc": HD_VISC, "remote": REMOTE}
 MODE_NAMES = {v: k for k, v in MODES.items()}
 
@@ -83,12 +85,42 @@ class TurbineBank:
         self.fell_back = np.zeros(n, dtype=bool)
         self.fallbacks = np.zeros(n, dtype=np.int64)
         self.trips = np.zeros(n, dtype=np.int64)
-        self.slow = None  # (P_aero, P_avail) held over one plant step, or None = evaluate every stage
+        self.slow = None  # slow terms held over one plant step (slow_terms), or None = every stage
+        self._false = np.zeros(n, dtype=bool)
+        # constants as (N,) arrays of the operand's dtype: array-array ufuncs of one dtype are the
+        # cheapest numpy calls on short arrays (no scalar conversion, no casting)
+        cc = {"-j": -1j, "kpc": params.kpc, "kic": params.kic, "jlf": 1j * params.lf,
+              "zf": complex(params.rf, params.lf), "w0_lf": OMEGA0 / params.lf}
+        rc = {"w0kp": OMEGA0 * params.kp_pll, "w0": OMEGA0, "ki_pll": params.ki_pll, "1e-4": 1e-4,
+              "m_max": params.m_max, "vdc_ref": params.v_dc_ref, "kp_dc": params.kp_dc,
+              "2/tau_dc": 2.0 / params.tau_dc, "ki_dc": params.ki_dc}
+        self._c = {k: np.full(n, val, dtype=complex) for k, val in cc.items()}
+        self._c.update({k: np.full(n, val) for k, val in rc.items()})
 
     def hold_slow(self, S) -> None:
-        """Evaluate aerodynamics once per plant step (zero-order hold; rotor/pitch act in seconds)."""
-        pa = self.p_aero(S[WR].real, S[B].real)
-        self.slow = (pa, self.p_avail(pa))
+        """Evaluate the slow (mechanical) terms once per plant step (zero-order hold; rotor/pitch act
+        in seconds): aerodynamic power, MSC power limit, the grid-following power reference
+        (MPPT curve), 1/(2 H w_r) and the pitch derivatives."""
+        self.slow = self.slow_terms(S)
+
+    def slow_terms(self, S):
+        p = self.p
+        Sr = S.real
+        wr, beta = Sr[WR], Sr[B]
+        pa = self.p_aero(wr, beta)
+        pav = self.p_avail(pa)
+        sref = self.p_star(wr) - 1j * self.q_cmd
+        ew = wr - p.omega_r_ref
+        bref_u = p.kp_beta * ew + Sr[XB]
+        bref = np.maximum(np.minimum(bref_u, p.beta_max), 0.0)
+        aw_b = ((bref_u <= 0.0) & (ew < 0)) | ((bref_u >= p.beta_max) & (ew > 0))
+        db = np.maximum(np.minimum((bref - beta) / p.tau_beta, p.rate_beta), -p.rate_beta)
+        dxb = np.where(aw_b, 0.0, p.ki_beta * ew)
+        inv2hw = 1.0 / (2.0 * p.h_rotor * np.maximum(wr, 0.1))
+        # grid-following: no clamp of V_d and no current limit while V_d >= vd_ok
+        vd_ok = max(0.3, float(np.max(np.abs(sref))) / p.i_max_gfl)
+        return {"paero": pa, "pav": pav, "pav_min": float(np.min(pav)), "sref": sref, "vd_ok": vd_ok,
+                "inv2hw": inv2hw, "db": db, "dxb": dxb, "any_batt": bool(self.battery.any())}
 
     # ------------------------------------------------------------------ aero
     def p_aero(self, wr, beta):
@@ -129,52 +161,91 @@ class TurbineBank:
         return vp.imag / np.maximum(np.abs(v), 0.1)
 
     # ------------------------------------------------------------------ rhs
-    def rhs(self, S, v, vconv_ext, ext_mask):
+    def rhs(self, S, v, vconv_ext, ext_mask, any_ext=None, out=None):
         """Derivatives of S given terminal voltage v (turbine p.u.) and external converter refs.
 
         ``vconv_ext`` holds the converter voltage for turbines where ``ext_mask`` is True
-        (remote and hd_visc); the others run grid-following.  Returns (dS, aux).
+        (remote and hd_visc); the others run grid-following.  Returns (dS, aux); ``out`` (NS, N)
+        receives dS if given.  Limits (V_d floor, current limit, modulation limit, MSC power
+        clip, chopper) are skipped by cheap whole-array checks when none can be active.
         """
-        p = self.p
+        p, c = self.p, self._c
+        sl = self.slow if self.slow is not None else self.slow_terms(S)
+        if any_ext is None:
+            any_ext = bool(ext_mask.any())
+        Sr = S.real
         i = S[IF]
-        vconv_gfl, e, ev = self.gfl_vconv(S, v)
-        vconv = np.where(ext_mask, vconv_ext, vconv_gfl)
-        vdc = np.sqrt(np.maximum(S[W].real, 1e-4))
-        vmax = p.m_max * vdc
+        rotc = np.exp(c["-j"] * Sr[TH])
+        vp = v * rotc
+        vd = vp.real
+        vmag = np.abs(v)
+        if _min(vd) >= sl["vd_ok"]:  # common case: no clamp, no grid-following current limit
+            iref = sl["sref"] / vd
+        else:
+            vmag = np.maximum(vmag, 0.1)
+            iref = sl["sref"] / np.maximum(vd, 0.3)
+            iref = iref * np.minimum(1.0, p.i_max_gfl / np.maximum(np.abs(iref), 1e-9))
+        ev = vp.imag / vmag
+        e = iref - i * rotc
+        # d = v_conv - v; grid-following: j lf i + (kpc e + kic xi) e^{j theta}
+        d = c["kpc"] * e
+        d += c["kic"] * S[XI]
+        d *= rotc.conj()
+        d += c["jlf"] * i
+        if any_ext:
+            d = np.where(ext_mask, vconv_ext - v, d)
+        vconv = v + d
+        vdc = np.sqrt(np.maximum(Sr[W], c["1e-4"]))
         vm = np.abs(vconv)
-        lim = vm > vmax
-        vconv = vconv * np.minimum(1.0, vmax / np.maximum(vm, 1e-9))
+        if _max(vm - c["m_max"] * vdc) > 0.0:
+            vmax = p.m_max * vdc
+            lim = vm > vmax
+            vconv = vconv * np.minimum(1.0, vmax / np.maximum(vm, 1e-9))
+            d = vconv - v
+            any_lim = True
+        else:
+            lim = self._false
+            any_lim = False
         pconv = (vconv * i.conj()).real
         # machine side
-        wr = S[WR].real
-        beta = S[B].real
-        edc = p.v_dc_ref - vdc
-        pme_u = p.kp_dc * edc + S[XD].real
-        if self.slow is None:
-            paero = self.p_aero(wr, beta)
-            pav = self.p_avail(paero)
+        edc = c["vdc_ref"] - vdc
+        pme_u = c["kp_dc"] * edc
+        pme_u += Sr[XD]
+        if _max(pme_u) <= sl["pav_min"] and _min(pme_u) >= p.p_me_min:
+            pme, aw_dc = pme_u, None
         else:
-            paero, pav = self.slow
-        pme = np.maximum(np.minimum(pme_u, pav), p.p_me_min)
-        aw_dc = (pme_u - pme) * edc > 0.0  # clipped and the error pushes further out
-        pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0) if self.battery.any() else 0.0
-        ew = wr - p.omega_r_ref
-        bref_u = p.kp_beta * ew + S[XB].real
-        bref = np.maximum(np.minimum(bref_u, p.beta_max), 0.0)
-        aw_b = ((bref_u <= 0.0) & (ew < 0)) | ((bref_u >= p.beta_max) & (ew > 0))
-
-        dS = np.empty_like(S)
-        dS[IF] = (OMEGA0 / p.lf) * (vconv - v - (p.rf + 1j * p.lf) * i)
-        dS[XI] = np.where(lim | ext_mask, 0.0, e)
-        dS[TH] = OMEGA0 * (p.kp_pll * ev + S[XP].real)
-        dS[XP] = p.ki_pll * ev
-        pchop = np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5) if vdc.max() > p.v_chop else 0.0
-        dS[W] = (2.0 / p.tau_dc) * (pme + pbatt - pconv - pchop)
-        dS[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
-        dS[WR] = (paero - pme) / (2.0 * p.h_rotor * np.maximum(wr, 0.1))
-        dS[B] = np.maximum(np.minimum((bref - beta) / p.tau_beta, p.rate_beta), -p.rate_beta)
-        dS[XB] = np.where(aw_b, 0.0, p.ki_beta * ew)
-        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": paero, "vlim": lim}
+            pme = np.maximum(np.minimum(pme_u, sl["pav"]), p.p_me_min)
+            aw_dc = (pme_u - pme) * edc > 0.0  # clipped and the error pushes further out
+        if out is None:
+            out = np.empty_like(S)
+        dS, dSr = out, out.real
+        dS.imag[TH:] = 0.0  # real rows
+        d -= c["zf"] * i
+        np.multiply(d, c["w0_lf"], out=dS[IF])
+        if any_ext or any_lim:
+            dS[XI] = np.where(lim | ext_mask, 0.0, e)
+        else:
+            dS[XI] = e
+        np.multiply(ev, c["w0kp"], out=dSr[TH])
+        dSr[TH] += c["w0"] * Sr[XP]
+        np.multiply(ev, c["ki_pll"], out=dSr[XP])
+        net = pme - pconv
+        pbatt = 0.0
+        if sl["any_batt"]:
+            pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0)
+            net = net + pbatt
+        if _max(vdc) > p.v_chop:
+            net = net - np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
+        np.multiply(net, c["2/tau_dc"], out=dSr[W])
+        if aw_dc is None:
+            np.multiply(edc, c["ki_dc"], out=dSr[XD])
+        else:
+            dSr[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
+        np.multiply(sl["paero"] - pme, sl["inv2hw"], out=dSr[WR])
+        dSr[B] = sl["db"]
+        dSr[XB] = sl["dxb"]
+        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": sl["paero"], "vlim": lim,
+               "ev": ev}
         return dS, aux
 
     # ------------------------------------------------------------------ initialisation

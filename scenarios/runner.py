@@ -117,9 +117,16 @@ class Run:
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
         self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
                            waitConnected=False)
-        self.net.addController("c0", controller=RemoteController, ip="127.0.0.1", port=port)
+        class CheckedController(RemoteController):
+            """The runner checks the port itself; Mininet's telnet probe can choke on the OpenFlow
+            HELLO bytes os-ken sends back (UnicodeDecodeError)."""
+
+            def checkListening(self):
+                pass
+
+        self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=port)
         if sc.sdn.redundancy:
-            self.net.addController("c1", controller=RemoteController, ip="127.0.0.1", port=port2)
+            self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=port2)
         self.net.build()
         self.net.start()
         for sw in self.net.switches:

@@ -26,25 +26,35 @@ class AckTrack:
     t_rearm: float = float("-inf")
     fired: bool = False
     confirmed: int = 0
+    armed: bool = True
 
 
 class DrMonitor:
     """Tracks AK per turbine and reports confirmed DR events."""
 
-    def __init__(self, hold_s: float = 0.040, ak_timeout_s: float = 0.030) -> None:
-        if hold_s <= 0 or ak_timeout_s <= 0:
-            raise ValueError("hold_s and ak_timeout_s must be positive")
+    def __init__(self, hold_s: float = 0.040, ak_timeout_s: float = 0.030, start_grace_s: float = 0.5) -> None:
+        if hold_s <= 0 or ak_timeout_s <= 0 or start_grace_s < 0:
+            raise ValueError("hold_s and ak_timeout_s must be positive, start_grace_s not negative")
         self.hold_s = hold_s
         self.ak_timeout_s = ak_timeout_s
+        self.start_grace_s = start_grace_s
         self.tracks: dict[str, AckTrack] = {}
 
     def track(self, wt: str) -> AckTrack:
         return self.tracks.setdefault(wt, AckTrack())
 
-    def start(self, wt: str, now: float) -> None:
-        """A turbine was (re)routed at ``now``: a loss before ``now`` no longer counts."""
+    def start(self, wt: str, now: float, *, armed: bool = True) -> None:
+        """A turbine was (re)routed at ``now``: a loss before ``now`` no longer counts.
+
+        ``armed=False`` for a fresh ViSC start: until the first AK = 1 (communication established)
+        the loss counts only from ``start_grace_s`` after the start, so the SDC's and the
+        turbine's start-up is not mistaken for a failure; after a reroute the hold restarts at once.
+        """
         t = self.track(wt)
         t.t_loss, t.fired, t.t_rearm, t.t_last_rx = None, False, now, now
+        t.armed = armed
+        if not armed:
+            t.t_rearm = now + self.start_grace_s
 
     def stop(self, wt: str) -> None:
         self.tracks.pop(wt, None)
@@ -56,6 +66,8 @@ class DrMonitor:
             return False
         t.seq, t.ak, t.ctrl_rx, t.t_last_rx = seq, ak, ctrl_rx, now
         if ak:
+            if not t.armed:  # communication established: the start-up grace ends now
+                t.armed, t.t_rearm = True, now
             t.t_loss, t.fired = None, False
         else:
             started = max(now - max(ctrl_age_s, 0.0), t.t_rearm)
@@ -68,8 +80,8 @@ class DrMonitor:
         if t is None:
             return None
         if t.t_loss is not None:
-            return t.t_loss
-        if t.t_last_rx is not None and now - t.t_last_rx > self.ak_timeout_s:
+            return t.t_loss if now >= t.t_rearm else None
+        if t.t_last_rx is not None and now - t.t_last_rx > self.ak_timeout_s and now >= t.t_rearm:
             return max(t.t_last_rx, t.t_rearm)  # AK messages stopped: missing AK counts as 0
         return None
 

@@ -466,7 +466,7 @@ class Controller:
         actions += self._install(name, sdc, path, wid, now)
         self.tables.set_mode(name, True)
         self.tables.set_comm(name, comm_on=True, link_ok=True)
-        self.dr.start(name, now)
+        self.dr.start(name, now, armed=False)
         params = {k: msg[k] for k in PARAM_KEYS}
         self._event(now, "visc_on", wt=name, sdc=sdc, path=path, flows=self.counters["flow_mods"])
         actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params)

@@ -71,3 +71,19 @@ def test_fault_shunt_is_z2_plus_z0_plus_3zf():
     assert 1.0 / dy == pytest.approx(z2 + net.z0 + 3 * zf)
     # bolted fault on an ideal source with only the grid: V1 = (Z2+Z0)/(Z1+Z2+Z0) roughly 0.5-0.7
     assert 0.3 < abs((z2 + net.z0) / (z2 + net.z0 + net.z_grid())) < 0.8
+
+
+def test_reduced_solve_equals_full_solve():
+    rng = np.random.default_rng(2)
+    for fault, unplug in ((False, False), (True, True)):
+        net = Network(PlantParams(), 50)
+        if unplug:
+            net.set_plugged([3, 17], False)
+        net.set_fault(fault, 0.01)
+        net.ensure()
+        i_t = rng.normal(size=50) + 1j * rng.normal(size=50)
+        e_g, e_sc, i_l = 1.0 + 0.1j, 0.98 - 0.05j, 0.1 + 0.02j
+        full = net.solve(net.injections(i_t, e_g, e_sc, i_l))
+        u = net.reduced_u(i_t, e_g, e_sc, i_l)
+        assert np.allclose(net.zcols @ u, full, rtol=1e-12, atol=1e-13)
+        assert np.allclose(net.zred @ u, full[net.red_idx], rtol=1e-12, atol=1e-13)

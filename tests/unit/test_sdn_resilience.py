@@ -148,3 +148,18 @@ def test_dead_primary_fails_over_with_address_rewrite(failover):
     cmds = [decode_out(a) for a in actions if isinstance(a, fl.PacketOut) and not is_learn(a)]
     assert ("10.0.0.22", wire.PORT_SDC) in {(d, p) for d, p, m in cmds if m["cmd"] == wire.Command.TAKEOVER}
     assert ctl.paths["wt1_1"].sdc == "sdc2" and ctl.paths["wt1_1"].path[0] == "sdc2"
+
+
+def test_fresh_start_is_not_mistaken_for_a_failure():
+    m = DrMonitor(hold_s=HOLD, ak_timeout_s=0.030, start_grace_s=0.5)
+    m.start("wt1_1", now=1.0, armed=False)
+    m.on_ak("wt1_1", 1, 0, 0, 1e3, now=1.01)  # the SDC has not answered yet
+    assert m.due(["wt1_1"], now=1.2) == []
+    m.on_ak("wt1_1", 2, 1, 5, 0.001, now=1.03)  # communication established: armed
+    m.on_ak("wt1_1", 3, 0, 9, 0.012, now=1.10)
+    assert [w for w, _ in m.due(["wt1_1"], now=1.088 + HOLD + 1e-6)] == ["wt1_1"]
+    # a turbine whose SDC never answers is reported once the start-up grace is over
+    m.start("wt1_2", now=2.0, armed=False)
+    m.on_ak("wt1_2", 1, 0, 0, 1e3, now=2.01)
+    assert m.due(["wt1_2"], now=2.5 + HOLD - 1e-3) == []
+    assert [w for w, _ in m.due(["wt1_2"], now=2.5 + HOLD + 1e-3)] == ["wt1_2"]
