@@ -1,9 +1,11 @@
 """The plant: network + turbines + condenser + grid source, fixed-step integration.
 
 Time exists only as ``step counter * step_s``; there is no wall clock here.  One call of
-``step()`` advances ``step_s`` with ``substeps`` Heun (RK2) or RK4 sub-steps on the whole state
-(turbines, condenser, grid source, PCC PLL and, for ``hd_visc`` turbines, the ViSC law state).
-The network is algebraic and solved at every stage with the pre-factorised Y (network.py).
+``step()`` advances ``step_s`` with ``substeps`` ETD2 (default), Heun (RK2) or RK4 sub-steps on
+the whole state (turbines, condenser, grid source, PCC PLL and, for ``hd_visc`` turbines, the ViSC
+law state). The network is algebraic and solved at every stage with one reduced mat-vec of the
+pre-inverted Y (network.py). The slow mechanical terms are held over ``slow_every`` steps
+(docs/plant.md, Integration).
 """
 
 from __future__ import annotations
@@ -130,8 +132,12 @@ class Plant:
         e_sc = self.sc.e_net(xsc) if net.sc_connected else 0.0j
         vl = self._v_pcc_last
         i_load = self.load_s.conjugate() * vl / max(abs(vl) ** 2, 0.49) if self.load_s else 0.0j
-        i_t = S[T.IF].copy() if net.all_plugged else np.where(net.plugged, S[T.IF], 0.0)
-        Vr = net.zred @ net.reduced_u(i_t, e_grid, e_sc, i_load)
+        u = np.empty(n + 2, dtype=complex)  # source vector of the reduced solve (Network.factorize)
+        u[:n] = S[T.IF] if net.all_plugged else np.where(net.plugged, S[T.IF], 0.0)
+        i_t = u[:n]
+        u[n] = e_grid * net.y_grid - i_load
+        u[n + 1] = e_sc * net.y_sc
+        Vr = net.zred @ u
         v = Vr[:n]
         vp, vsc = Vr[n:].tolist()
         ext, any_ext, _ = self._mode_info()
@@ -279,7 +285,8 @@ class Plant:
         phi1 = np.where(c > 0, (1.0 - E) / safe, h)
         phi2 = np.where(c > 0, (E - 1.0 + ch) / (safe * safe * h), 0.5 * h)
         self._c = c
-        self._etd = (key, (E, phi1, phi2))
+        # complex coefficient arrays: multiplying the complex state by them needs no casting
+        self._etd = (key, (E.astype(complex), phi1.astype(complex), phi2.astype(complex)))
         return self._etd[1]
 
     @staticmethod
@@ -367,9 +374,9 @@ class Plant:
 
     def _check_fallback(self) -> None:
         tb = self.tb
-        rem = np.nonzero(tb.mode == T.REMOTE)[0]
-        if rem.size == 0:
+        if not self._mode_info()[2]:
             return
+        rem = np.nonzero(tb.mode == T.REMOTE)[0]
         S = self.X[: self.o_sc].reshape(T.NS, self.n)
         over = rem[np.abs(S[T.IF, rem]) > self.params.turbine.trip_current]
         late = rem[(self.k - tb.last_rx_step[rem]) * self.step_s >= self.params.turbine.remote_loss_fallback_s]

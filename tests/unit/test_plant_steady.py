@@ -125,3 +125,20 @@ def test_remote_i_ref_option_and_service_call_signature():
     for _ in range(int(0.15 / p.step_s)):
         p.step()
     assert p.fallbacks[2] == 1 and p.tb.mode[2] == 0
+
+
+def test_slow_term_hold_matches_per_step_evaluation():
+    """Holding the slow mechanical terms over 10 steps (default) against evaluating them every step:
+    a power-reference step makes the rotors accelerate and the pitch act."""
+    res = []
+    for every in (1, 10):
+        p = Plant(n_turbines=5, slow_every=every)
+        r = p.run_offline(1.5, events=[(0.1, lambda q: q.set_power_ref([0, 1], p=0.6))], record_every=15)
+        res.append(r)
+    a, b = res
+    print(f"\npitch {a['pitch'][-1, 0]:.4f} vs {b['pitch'][-1, 0]:.4f} deg, omega_r {a['omega_r'][-1, 0]:.6f} vs"
+          f" {b['omega_r'][-1, 0]:.6f}, max |dP| {np.max(np.abs(a['p_wt'] - b['p_wt'])):.2e}")
+    assert a["pitch"][-1, 0] > a["pitch"][0, 0] + 1.0, "the pitch must act"
+    assert np.max(np.abs(a["pitch"] - b["pitch"])) < 0.05
+    assert np.max(np.abs(a["omega_r"] - b["omega_r"])) < 1e-3
+    assert np.max(np.abs(a["p_wt"] - b["p_wt"])) < 1e-3
