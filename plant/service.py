@@ -60,19 +60,43 @@ class Endpoint:
     takeover_jump: float | None = None
 
 
-def build_model(cfg: dict, n: int):
+FARM_TURBINES_PER_CLUSTER = 10
+
+
+def build_model(cfg: dict, names: list[str]):
+    """The plant model and the model index of each turbine endpoint (by host name).
+
+    ``minimal``: one model turbine per turbine host. ``full``: the 50-turbine farm of
+    :mod:`plant.sim`; host ``wt<c>_<n>`` is farm turbine ``(c-1)*10 + n-1``, the other farm
+    turbines run without a network endpoint (grid following).
+    """
     kind = cfg.get("model", "minimal")
     step_s = cfg["step_s"]
     if kind == "minimal":
         from plant.minimal import MinimalPlant
 
-        return MinimalPlant(n, step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1),
-                            remote_apply=cfg.get("remote_apply", "i_ref"))
+        model = MinimalPlant(len(names), step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1),
+                             remote_apply=cfg.get("remote_apply", "i_ref"))
+        return model, list(range(len(names)))
     if kind == "full":
+        from dataclasses import replace
+
         from plant.params import PlantParams
         from plant.sim import Plant
 
-        return Plant(PlantParams(), n_turbines=n, step_s=step_s)
+        base = PlantParams()
+        turbine = replace(base.turbine, remote_apply=cfg.get("remote_apply", "i_ref"),
+                          remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1))
+        params = replace(base, turbine=turbine)
+        n_farm = params.n_clusters * FARM_TURBINES_PER_CLUSTER
+        indices = []
+        for name in names:
+            c, n = wire.parse_turbine(name)
+            index = (c - 1) * FARM_TURBINES_PER_CLUSTER + (n - 1)
+            if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm:
+                raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
+            indices.append(index)
+        return Plant(params, n_turbines=n_farm, step_s=step_s), indices
     raise ValueError(f"unknown plant model {kind!r}")
 
 
@@ -88,12 +112,12 @@ class PlantService:
         self.ak_every = max(1, int(round(cfg.get("ak_period_s", 0.01) / self.step_s)))
         self.ak_window_s = float(cfg.get("ak_window_s", 0.01))
         self.out_dir = Path(cfg["out_dir"])
+        self.model, indices = build_model(cfg, [t["name"] for t in cfg["turbines"]])
         self.endpoints: list[Endpoint] = []
-        for i, t in enumerate(cfg["turbines"]):
+        for t, index in zip(cfg["turbines"], indices):
             sock = udp_socket_in(t.get("pid"), t["ip"], wire.PORT_TURBINE)
-            self.endpoints.append(Endpoint(t["name"], t["wid"], i, sock))
+            self.endpoints.append(Endpoint(t["name"], t["wid"], index, sock))
         self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
-        self.model = build_model(cfg, len(self.endpoints))
         self.rx_stats = wire.DecodeStats()
         self.late_steps = 0
         self.max_lateness_s = 0.0

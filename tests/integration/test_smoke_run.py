@@ -92,3 +92,18 @@ def test_clean_command_removes_a_crashed_runs_leftovers():
     assert res.returncode == 0, res.stderr
     assert "removed 1 bridges" in res.stdout
     assert_no_leftovers()
+
+
+def test_full_farm_model_serves_the_smoke_turbine_in_real_time(tmp_path):
+    summary = run_scenario(ROOT / "scenarios" / "smoke_full.yaml", tmp_path)
+    packets = summary["turbines"]["wt1_1"]["packets"]
+    assert packets["ctrl_rx"] == pytest.approx(2.0 / summary["step_s"], rel=0.05)
+    assert summary["late_steps"] < 0.05 * summary["steps"]
+    assert summary["converter_trips"] == {} and summary["fallbacks"] == {}
+    import csv
+
+    rows = list(csv.DictReader(open(tmp_path / "timeseries.csv")))
+    v = [float(r["v_pcc"]) for r in rows]
+    assert 0.9 < min(v) and max(v) < 1.1  # the farm stays in a sane operating region under remote control
+    modes = {r["wt1_1.mode"] for r in rows if float(r["t"]) > 1.2}
+    assert modes == {"2"}  # remote mode all the way
