@@ -107,7 +107,12 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
             time.sleep(0.05)
         raise AssertionError(f"run did not reach t = {t}")
 
-    wait_t(1.8)
+    wait_t(1.5)
+    # access control: wt1_2 spoofs wt1_1's IP toward the SDC; 20 garbage datagrams must not get there
+    spoof = ("from scapy.all import Ether, IP, UDP, Raw, sendp; "
+             "sendp([Ether(src='02:00:00:00:01:02', dst='02:00:00:00:00:15')/IP(src='10.0.1.1', dst='10.0.0.21')"
+             "/UDP(sport=50020, dport=50010)/Raw(b'x' * 57)] * 20, iface='wt1_2-eth0', verbose=0)")
+    proc.stdin.write(f'wt1_2 {sys.executable} -c "{spoof}"\n')
     proc.stdin.write("link s1 s3 down\n")
     proc.stdin.flush()
     wait_t(2.8)
@@ -121,6 +126,8 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
     assert "wt1_1" in text and "1/1" in text  # tables: T2 1/1 and T3 1/1 again after the reroute
     assert "down links: [['s1', 's3']]" in text
     s = json.loads((out / "summary.json").read_text())
+    assert s["sdn_counters"].get("drop_no_flow:10.0.1.1->10.0.0.21", 0) >= 20, text  # the spoofed datagrams
+    assert s["wire_rejected"]["sdc1"]["rejected"] == 0  # none reached the SDC
     (rec,) = s["recoveries"]
     assert rec["cause"] == "dr" and rec["fault"]["type"] == "link_down"
     assert rec["recovery_ms"] is not None and rec["recovery_ms"] < 100
