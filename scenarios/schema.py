@@ -70,7 +70,7 @@ class SdnSpec(Strict):
     redundancy: bool = Field(False, description="run a second SDN app instance as OpenFlow slave that takes over")
     visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
-    sdc_dead_s: float = Field(0.040, gt=0, le=1.0, description="an SDC is dead after this long without heartbeat")
+    sdc_dead_s: float = Field(0.030, gt=0, le=1.0, description="an SDC is dead after this long without heartbeat")
     mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
 
 

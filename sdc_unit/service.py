@@ -33,6 +33,7 @@ import select
 import signal
 import socket
 import sys
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -218,19 +219,26 @@ class SdcService:
         except OSError:
             pass
 
+    def _heartbeat_loop(self) -> None:
+        """Heartbeats from their own thread: they say the process is alive even while the main loop
+        works through a burst (a dead process stops them at once; a stuck loop shows in the AKs)."""
+        while self.running:
+            self._heartbeat(time.time())
+            time.sleep(HEARTBEAT_S)
+
     def run(self, until: float | None = None) -> None:
         poller = select.epoll()
         poller.register(self.sock.fileno(), select.EPOLLIN)
-        next_hb = time.time()
+        beats = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
+        beats.start()
         try:
             while self.running and (until is None or time.time() < until):
                 poller.poll(HEARTBEAT_S / 2)
                 now = time.time()
                 self._serve(self._drain(now), now)
-                if now >= next_hb:
-                    self._heartbeat(now)
-                    next_hb = now + HEARTBEAT_S
         finally:
+            self.running = False
+            beats.join(timeout=1.0)
             poller.close()
 
     def summary(self) -> dict:

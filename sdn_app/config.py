@@ -61,7 +61,7 @@ class AppConfig(BaseModel):
     fast_failover: bool = Field(False, description="pre-install fast-failover groups with detours (data-plane repair)")
     reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
-    sdc_dead_s: float = Field(0.040, gt=0, description="an SDC is dead after this long without a heartbeat, s")
+    sdc_dead_s: float = Field(0.030, gt=0, description="an SDC is dead after this long without a heartbeat, s")
     mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
     state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
     header: bool = Field(True, description="GTNET packets carry the VILLAS 3-word header")

@@ -361,6 +361,12 @@ class Controller:
     # ------------------------------------------------------------------ SDC failover
     def _check_sdcs(self, now: float) -> list:
         actions: list = []
+        stale = [sdc for sdc, t in self.sdc_heartbeat.items() if now - t > self.config.sdc_dead_s]
+        if len(self.sdc_heartbeat) > 1 and len(stale) == len(self.sdc_heartbeat):
+            # every SDC silent at once: far likelier our own stall (a busy event loop, a switch busy
+            # revalidating) than all SDCs dying together; decide nothing until heartbeats are seen
+            self.counters["sdc_check_all_stale"] += 1
+            return actions
         for sdc, t_last in list(self.sdc_heartbeat.items()):
             if sdc in self.sdc_dead or now - t_last <= self.config.sdc_dead_s:
                 continue
@@ -517,7 +523,10 @@ class Controller:
             self.counters["drop_heartbeat_unknown"] += 1
             return []
         self.counters["heartbeats"] += 1
-        self.sdc_heartbeat[sdc] = now
+        sent = msg.header.sec + msg.header.nsec * 1e-9 if msg.header is not None else now
+        # liveness from the send time (same clock on this testbed), so a backlog in the app's own
+        # event loop is not mistaken for a dead SDC; never later than the receive time
+        self.sdc_heartbeat[sdc] = max(self.sdc_heartbeat.get(sdc, 0.0), min(sent, now))
         if sdc in self.sdc_dead:
             self.sdc_dead.discard(sdc)
             self._event(now, "sdc_alive", sdc=sdc)

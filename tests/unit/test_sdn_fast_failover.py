@@ -8,11 +8,10 @@ import pytest
 from sdn_app import flows as fl
 from sdn_app.logic import Controller
 from sdn_app.paths import link_key
+from sdvisc import wire
 from tests.unit.test_sdn_logic import frame, make_config, request
 from topologies import topos
 from topologies.base import describe
-
-from sdvisc import wire  # noqa: I001
 
 
 def switch_tables(actions):

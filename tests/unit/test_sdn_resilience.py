@@ -56,7 +56,8 @@ def ak(ctl, seq, value, age_s, now):
 def heartbeat(ctl, sdc, seq, now):
     h = ctl.config.topology.hosts[sdc].model_dump()
     payload = wire.encode(wire.MsgType.HEARTBEAT, {"sdc_id": int(sdc[-1]), "seq": seq, "n_instances": 1,
-                                                   "t_wall": now}, header=wire.Header(seq, 0, 0))
+                                                   "t_wall": now % 1e4},
+                          header=wire.Header(seq, int(now), int((now % 1) * 1e9)))
     return ctl.packet_in(1, 1, frame(h, payload), now)
 
 
@@ -163,3 +164,15 @@ def test_fresh_start_is_not_mistaken_for_a_failure():
     m.on_ak("wt1_2", 1, 0, 0, 1e3, now=2.01)
     assert m.due(["wt1_2"], now=2.5 + HOLD - 1e-3) == []
     assert [w for w, _ in m.due(["wt1_2"], now=2.5 + HOLD + 1e-3)] == ["wt1_2"]
+
+
+def test_all_sdcs_silent_at_once_is_not_a_failover():
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    heartbeat(ctl, "sdc1", 1, 0.99)
+    heartbeat(ctl, "sdc2", 1, 0.99)
+    visc_on(ctl, 1.0)
+    assert ctl.tick(1.1) == []  # both stale: our own stall, not two deaths
+    assert ctl.active_sdc == "sdc1" and not ctl.sdc_dead
+    heartbeat(ctl, "sdc2", 2, 1.11)
+    assert ctl.tick(1.12)  # now only sdc1 is silent: fail over
+    assert ctl.active_sdc == "sdc2"
