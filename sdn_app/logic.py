@@ -300,7 +300,7 @@ class Controller:
         switch = self.switch_by_dpid.get(dpid)
         key = self.port_links.get((switch, port)) if switch else None
         if key is None:
-            return []
+            return self._turbine_port(switch, port, up, now)
         self.port_up[(switch, port)] = up
         ends = [(n, p) for (n, p), k in self.port_links.items() if k == key and n in self.dpids]
         link_up = all(self.port_up.get(end, True) for end in ends)  # up only when every visible end is
@@ -320,6 +320,27 @@ class Controller:
             for name, active in list(self.paths.items()):
                 if key in path_links(active.path):
                     actions += self._reroute(name, "port_status", now, t_loss=None)
+        return actions
+
+    def _turbine_port(self, switch: str | None, port: int, up: bool, now: float) -> list:
+        """A turbine's own access port changed: plug-and-play in T1 (rows removed on unplug and
+        restored from the topology on plug); a turbine unplugged while in ViSC loses its path."""
+        name = next((n for n, h in self.config.topology.hosts.items()
+                     if h.role == "turbine" and h.switch == switch and h.port == port), None)
+        if name is None:
+            return []
+        actions: list = []
+        if not up and name in self.tables.t1:
+            actions += self._remove_path(name)
+            self.dr.stop(name)
+            self.tables.unplug(name)
+            self._event(now, "turbine_unplugged", wt=name, switch=switch, port=port)
+        elif up and name not in self.tables.t1:
+            h = self._host(name)
+            self.tables.plug(TurbineAddress(name, h.cluster or 0, h.number or 0, h.ip, h.mac, h.switch, h.port),
+                             visc_enabled=name not in self.config.visc_disabled)
+            self._refresh_link_ok(name)
+            self._event(now, "turbine_plugged", wt=name, switch=switch, port=port)
         return actions
 
     def tick(self, now: float) -> list:

@@ -211,3 +211,19 @@ def test_actions_become_serialisable_openflow13_messages(ctl):
     assert kinds == {"OFPFlowMod", "OFPPacketOut"}
     miss = to_messages(fl.FlowAdd(1, 0, {}, (fl.Output(fl.TO_CONTROLLER),)), dp)[0]
     assert miss.instructions[0].actions[0].port == ofproto_v1_3.OFPP_CONTROLLER
+
+
+def test_plug_and_unplug_on_the_turbines_access_port():
+    desc = describe(topos["farm"](clusters=2, turbines=2))
+    ctl = Controller(AppConfig.model_validate({"topology": desc, "backup_sdc": None}), now=0.0)
+    owfcc_host = ctl.config.topology.hosts["owfcc"].model_dump()
+    ctl.packet_in(1, 1, frame(owfcc_host, request(wire.Command.VISC_ON, wt="wt2_1")), now=1.0)
+    h = ctl.config.topology.hosts["wt2_1"]
+    actions = ctl.port_status(ctl.dpids[h.switch], h.port, up=False, now=2.0)
+    assert "wt2_1" not in ctl.tables.t1 and "wt2_1" not in ctl.paths
+    assert {a.cookie for a in actions if isinstance(a, fl.FlowDelete)} == {fl.turbine_cookie(201)}
+    ctl.port_status(ctl.dpids[h.switch], h.port, up=True, now=3.0)
+    assert ctl.tables.lookup("wt2_1").ip == "10.0.2.1" and str(ctl.tables.t2["wt2_1"]) == "0/1"
+    assert [e["type"] for e in ctl.take_events()][-2:] == ["turbine_unplugged", "turbine_plugged"]
+    refused = ctl.packet_in(1, 1, frame(owfcc_host, request(wire.Command.VISC_ON, wt="wt9_1")), now=4.0)
+    assert decode_out(next(a for a in refused if isinstance(a, fl.PacketOut)))[2]["status"] == wire.Status.UNKNOWN_TURBINE
