@@ -89,7 +89,7 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
     # a copy of the DR scenario without its timeline fault: the failure comes from the CLI
     scenario = tmp_path / "cli.yaml"
     scenario.write_text((SC / "link_failure_dr.yaml").read_text().replace(
-        "  - {t: 2.0, do: link_down, a: s1, b: s3}\n", ""))
+        "  - {t: 2.0, do: link_down, a: s1, b: s3}\n", "").replace("duration_s: 4.0", "duration_s: 7.0"))
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "sdvisc.cli", "run", str(scenario), "--out", str(out), "--cli",
                              "--quiet"], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -108,17 +108,20 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
         raise AssertionError(f"run did not reach t = {t}")
 
     wait_t(1.5)
+    proc.stdin.write("link s1 s3 down\n")
+    proc.stdin.flush()
+    wait_t(1.8)
     # access control: wt1_2 spoofs wt1_1's IP toward the SDC; 20 garbage datagrams must not get there
+    # (the command imports scapy in the host: it takes a few seconds, the CLI waits for it)
     spoof = ("from scapy.all import Ether, IP, UDP, Raw, sendp; "
              "sendp([Ether(src='02:00:00:00:01:02', dst='02:00:00:00:00:15')/IP(src='10.0.1.1', dst='10.0.0.21')"
              "/UDP(sport=50020, dport=50010)/Raw(b'x' * 57)] * 20, iface='wt1_2-eth0', verbose=0)")
     proc.stdin.write(f'wt1_2 {sys.executable} -c "{spoof}"\n')
-    proc.stdin.write("link s1 s3 down\n")
     proc.stdin.flush()
-    wait_t(2.8)
+    wait_t(5.5)
     proc.stdin.write("status\ntables wt1_1\npaths\n")
     proc.stdin.flush()
-    wait_t(3.9)
+    wait_t(6.9)
     time.sleep(0.5)
     text, _ = proc.communicate("exit\n", timeout=60)
     assert proc.returncode == 0, text
