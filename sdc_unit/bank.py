@@ -115,7 +115,9 @@ class ControllerBank:
 
     def step(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
         """Advance the controllers of ``slots`` by one sample; returns (outputs, valid) per given slot."""
-        slots = np.asarray(slots)
+        slots = np.asarray(slots, dtype=np.intp)
+        if slots.size == 0:
+            return {k: np.zeros(0, dtype=bool if k == "limited" else float) for k in OUT_KEYS}, np.zeros(0, dtype=bool)
         finite = np.isfinite(meas[self.MEAS_KEYS[0]])
         for k in self.MEAS_KEYS[1:]:
             finite &= np.isfinite(meas[k])

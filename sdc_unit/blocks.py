@@ -316,6 +316,10 @@ class TustinSwing(_Block):
         d = np.broadcast_to(np.asarray(d, dtype=float), (self.n,))
         cf = tustin_swing_coeffs(h, d, self.ts)
         new = {k: self.c(v * (self.scale if k.startswith("b") else 1.0)) for k, v in cf.items()}
+        # keep the integrator pole exactly at z = 1 in the working precision: a1 lies in (1, 2), so
+        # a1 - 1 is exact (Sterbenz) and a1 - a2 == 1 holds in float32 too (rounding a1 and a2
+        # separately left a pole at 1 + 1.6e-5 at Ts = 0.25 ms: a slow exponential drift of delta)
+        new["a2"] = (new["a1"] - self.dtype.type(1.0)).astype(self.dtype)
         if mask is None or not hasattr(self, "a1"):
             for k, v in new.items():
                 setattr(self, k, v)

@@ -3,9 +3,10 @@
 The equations are those of :mod:`sdc_unit.law`; each dynamic block is replaced by its discrete
 counterpart from :mod:`sdc_unit.blocks`. Per sample k (time k*Ts; there is no wall clock):
 
-1. v_f(k): low-pass of v (held while the limiter was active at k-1).
-2. swing: T(k) = p_ref - P_e(k), P_e = p measured, or Re(v(k) conj(i_lim(k-1))) if the limiter
-   was active at k-1 (one-sample lag breaks the algebraic loop delta(k) -> limiter -> T(k));
+1. v_f(k): low-pass of v (optionally held while the limiter is active, ``freeze_vf_when_limited``).
+2. swing: T(k) = p_ref - P_e(k), P_e = p measured, or the limited current's power when the limiter
+   is active at k (predicted by a trial pass that commits no state, so there is neither a
+   one-sample lag nor an algebraic loop delta(k) -> limiter -> T(k));
    delta(k) from the eq. (15) recursion, omega(k) = 1 + [delta(k) - delta(k-1)]/(omega0 Ts)
    (backward difference).
 3. virtual friction chain with input omega_s - omega(k) -> V_F(k).

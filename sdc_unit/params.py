@@ -41,7 +41,8 @@ class ViscParams:
         l_v: virtual inductance L_vir [p.u.], default 0.2 [D'Arco 2015].
         t_vf: time constant of the measured-voltage low-pass filter [s], default 1/300 [Mo 2017].
         freeze_vf_when_limited: freeze that filter while the current limiter saturates, default
-            True [Mo 2017; Dynawo CurrentSaturation].
+            False (Mo 2017 / Dynawo CurrentSaturation freeze it; sampled at 0.67 ms, freezing latched
+            the controller at its limit after a dip, see docs/sdc.md).
 
     Current limiter:
         i_max: circular current limit [p.u.], default 1.5 [paper].

@@ -41,3 +41,13 @@ def test_core_function_keys_and_positive_numbers(bench):
 def test_service_round_produces_ctrl_packets(bench):
     r = bench.ServiceRound(3)
     assert r.full() == 3 * 60  # three CTRL datagrams of 15 words with the VILLAS header
+
+
+def test_bank_step_with_no_slots_returns_empty_outputs():
+    import numpy as np
+
+    from sdc_unit.bank import ControllerBank
+
+    bank = ControllerBank(capacity=3, step_s=0.67e-3)
+    out, valid = bank.step(np.array([], dtype=int), {k: np.zeros(0) for k in ControllerBank.MEAS_KEYS})
+    assert valid.shape == (0,) and out["v_ref_d"].shape == (0,)

@@ -159,3 +159,16 @@ def test_cumulative_swing_equals_tustin_float64():
         da, _ = a.step(u, w)
         db, _ = b.step(u, w)
     assert abs(da[0] - db[0]) < 1e-9 * max(1.0, abs(da[0]))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64])
+def test_swing_integrator_pole_stays_at_one_in_working_precision(dtype):
+    """a1 - a2 == 1 exactly, so a held delta never drifts (float32 once drifted away at 1 + 1.6e-5)."""
+    from sdc_unit.blocks import TustinSwing
+
+    sw = TustinSwing(h=np.array([3.0, 5.0]), d=np.array([90.0, 20.0]), ts=0.25e-3, n=2, dtype=dtype)
+    assert np.all(sw.a1.astype(np.float64) - sw.a2.astype(np.float64) == 1.0)
+    sw.set_operating_point(None, np.array([0.3, -1.2]), np.zeros(2), np.zeros(2), np.zeros(2))
+    for _ in range(40_000):  # 10 s at 0.25 ms with no torque and no speed input
+        delta, _ = sw.step(np.zeros(2), np.zeros(2))
+    assert np.allclose(delta, [0.3, -1.2], atol=1e-5)
