@@ -141,20 +141,21 @@ class Controller:
         return [fl.PacketOut(egress[0], egress[1], bytes(pkt.data))]
 
     def _learn_frames(self, path: list[str], src_host: str) -> list:
-        """Teach non-OpenFlow switches on ``path`` where ``src_host`` now is (frames with its MAC
-        sent from the OpenFlow switch in front of them), so an L2 switch with two uplinks follows
-        a reroute at once instead of after MAC ageing."""
+        """Teach non-OpenFlow switches on ``path`` where ``src_host`` and the controller's virtual
+        address now are (frames with their MACs sent from the OpenFlow switch in front of them), so
+        an L2 switch with two uplinks follows a reroute at once instead of after MAC ageing — for
+        the SDC's packets and for the turbine's AK to the controller alike."""
         actions = []
-        src_mac = self._host(src_host).mac
         dst_mac = self._host(path[-1]).mac if path[-1] in self.config.topology.hosts else "ff:ff:ff:ff:ff:ff"
         for a, b in zip(path, path[1:]):
             if a in self.dpids and b in self.config.topology.switches and b not in self.dpids:
-                pkt = packet.Packet()
-                pkt.add_protocol(ethernet.ethernet(dst=dst_mac, src=src_mac, ethertype=ETH_TYPE_LEARN))
-                pkt.add_protocol(b"sdvisc-learn".ljust(46, b"\0"))
-                pkt.serialize()
-                self.counters["packet_out"] += 1
-                actions.append(fl.PacketOut(self.dpids[a], self.graph.edges[a, b]["ports"][a], bytes(pkt.data)))
+                for src_mac in (self._host(src_host).mac, self.config.controller_vmac):
+                    pkt = packet.Packet()
+                    pkt.add_protocol(ethernet.ethernet(dst=dst_mac, src=src_mac, ethertype=ETH_TYPE_LEARN))
+                    pkt.add_protocol(b"sdvisc-learn".ljust(46, b"\0"))
+                    pkt.serialize()
+                    self.counters["packet_out"] += 1
+                    actions.append(fl.PacketOut(self.dpids[a], self.graph.edges[a, b]["ports"][a], bytes(pkt.data)))
         return actions
 
     def _header(self, now: float) -> wire.Header | None:
@@ -316,6 +317,8 @@ class Controller:
         for name in self.tables.t1:
             self._refresh_link_ok(name)
         actions: list = []
+        if not up and self.config.fast_failover:
+            actions += self._relearn_behind_l2(key, now)
         if not up and self.config.reroute_on_port_status:
             for name, active in list(self.paths.items()):
                 if key in path_links(active.path):
@@ -341,6 +344,26 @@ class Controller:
                              visc_enabled=name not in self.config.visc_disabled)
             self._refresh_link_ok(name)
             self._event(now, "turbine_plugged", wt=name, switch=switch, port=port)
+        return actions
+
+    def _relearn_behind_l2(self, key: frozenset, now: float) -> list:
+        """Fast failover cannot teach a non-OpenFlow switch that the SDC is now behind another
+        uplink (it keeps sending the turbine's packets into the dead one, and without those packets
+        no answer comes back to teach it). When such an uplink of an active path goes down, send a
+        learning frame with the SDC's MAC in through every other live uplink: the switch moves the
+        SDC there, and the entry detours carry the turbine's packets on."""
+        l2 = next((n for n in key if n not in self.dpids and n in self.config.topology.switches), None)
+        if l2 is None:
+            return []
+        actions: list = []
+        for name, active in self.paths.items():
+            if key not in path_links(active.path):
+                continue
+            for z in sorted(self.graph.neighbors(l2)):
+                if z not in self.dpids or link_key(l2, z) in self.down_links:
+                    continue
+                actions += self._learn_frames([z, l2, name], active.sdc)
+            self._event(now, "ff_relearn", wt=name, l2=l2, link=sorted(key))
         return actions
 
     def tick(self, now: float) -> list:

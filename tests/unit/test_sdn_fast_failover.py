@@ -116,3 +116,20 @@ def test_group_messages_serialise():
         (msg,) = to_messages(action, dp)
         msg.serialize()
         assert msg.buf[0] == ofproto_v1_3.OFP_VERSION
+
+
+def test_l2_uplink_failure_teaches_the_l2_switch_the_other_uplink():
+    ctl = Controller(make_config(backup_sdc=None, fast_failover=True), 0.0)
+    owfcc = ctl.config.topology.hosts["owfcc"].model_dump()
+    ctl.packet_in(1, 1, frame(owfcc, request(wire.Command.VISC_ON)), now=1.0)
+    assert ctl.paths["wt1_1"].path == ["sdc1", "s1", "s3", "l2", "wt1_1"]
+    s3_l2 = ctl.graph.edges["s3", "l2"]["ports"]["s3"]
+    actions = ctl.port_status(ctl.dpids["s3"], s3_l2, up=False, now=2.0)
+    outs = [a for a in actions if isinstance(a, fl.PacketOut)]
+    s4_l2 = (ctl.dpids["s4"], ctl.graph.edges["s4", "l2"]["ports"]["s4"])
+    assert [(a.dpid, a.port) for a in outs] == [s4_l2, s4_l2]
+    from os_ken.lib.packet import ethernet, packet
+
+    # the SDC's MAC and the controller's virtual MAC (the turbine's AK must follow too)
+    assert [packet.Packet(a.data).get_protocol(ethernet.ethernet).src for a in outs] == [
+        ctl.config.topology.hosts["sdc1"].mac, ctl.config.controller_vmac]

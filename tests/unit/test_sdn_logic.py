@@ -115,7 +115,7 @@ def test_visc_on_installs_both_directions_and_commands_sdc_turbine_owfcc(ctl):
     outs = [decode_out(a) for a in actions if isinstance(a, fl.PacketOut) and not is_learn(a)]
     learn = [a for a in actions if isinstance(a, fl.PacketOut) and is_learn(a)]
     # the L2 switch learns at once that sdc1 is behind s3 (the OpenFlow switch in front of it)
-    assert [(a.dpid, a.port) for a in learn] == [(3, ctl.graph.edges["s3", "l2"]["ports"]["s3"])]
+    assert [(a.dpid, a.port) for a in learn] == [(3, ctl.graph.edges["s3", "l2"]["ports"]["s3"])] * 2
     assert packet.Packet(learn[0].data).get_protocol(ethernet.ethernet).src == ctl.config.topology.hosts["sdc1"].mac
     # path sdc1 - s1 - s3 - l2 - wt1_1: two OpenFlow switches, two directions each
     assert len(adds) == 4
