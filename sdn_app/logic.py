@@ -12,7 +12,8 @@ What it does (paper Section III, plus the testbed's extensions):
   ``visc_off`` and parameter changes likewise; refusals are answered with a reason;
 * ``DR_i = ViSC_WT_i ∧ ¬AK_i`` after the hold (:mod:`sdn_app.dr`): reroute around the failure
   (known down links, else a link-disjoint alternative), optionally also at once on port status;
-* SDC failover: a primary without heartbeat for ``sdc_dead_s`` is dead; its turbines' flows are
+* SDC failover: a primary without heartbeat for ``sdc_dead_s`` whose turbines also report a loss of
+  control packets (AK) is dead; its turbines' flows are
   redirected to the backup with address rewriting (the turbine keeps addressing the same SDC) and
   the backup, which received mirrored measurements, is told to take over;
 * access control: requests only from the OWFCC, AK only from T1-registered (IP, MAC) sources;
@@ -414,8 +415,13 @@ class Controller:
         for sdc, t_last in list(self.sdc_heartbeat.items()):
             if sdc in self.sdc_dead or now - t_last <= self.config.sdc_dead_s:
                 continue
-            self.sdc_dead.add(sdc)
             served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
+            if served and all(self.dr.loss_since(n, now) is None for n in served):
+                # its turbines still get control packets: the heartbeats are late (a switch busy
+                # installing flows delays its packet-ins), the SDC is not dead
+                self.counters["sdc_silent_turbines_served"] += 1
+                continue
+            self.sdc_dead.add(sdc)
             self._event(now, "sdc_dead", sdc=sdc, t_last_heartbeat=t_last, turbines=served)
             if sdc == self.active_sdc:
                 actions += self._failover(sdc, served, now, t_last)
