@@ -6,8 +6,8 @@ socket in the turbine host's network namespace (bound to the turbine IP, port
 ``wire.PORT_TURBINE``). A turbine starts streaming measurements to its SDC only when the SDN
 application tells it to (``REQUEST STREAM_START``, which also names the SDC); from then on, each
 step it sends one ``MEAS``, applies the newest ``CTRL`` it received (hold last value; fall back
-after the model's loss time), and every ``ak_period_s`` reports ``AK`` (1 when a ``CTRL`` arrived
-within ``ak_window_s``) to the SDN application. Scenario events arrive as JSON lines on stdin.
+after the model's loss time), and reports ``AK`` (1 when a ``CTRL`` arrived within
+``ak_window_s``) to the SDN application every ``ak_period_s`` and at once whenever it changes. Scenario events arrive as JSON lines on stdin.
 Malformed packets are dropped and counted, never applied.
 """
 
@@ -54,6 +54,7 @@ class Endpoint:
     last_ctrl_rx_t: float | None = None
     ctrl_delays_ms: list = field(default_factory=list)
     ak_ones: int = 0
+    last_ak_sent: int = -1
     ctrl_gaps: list = field(default_factory=list)
     last_v_ref: complex | None = None
     backup_seen: bool = False
@@ -259,13 +260,15 @@ class PlantService:
             except OSError:
                 ep.counts.setdefault("meas_tx_error", 0)
                 ep.counts["meas_tx_error"] += 1
-            if send_ak:
+            ak_now = int(now - ep.last_ctrl_wall <= self.ak_window_s)
+            if send_ak or ak_now != ep.last_ak_sent:  # periodic, and at once on every change
                 self._send_ak(ep, now, sec, nsec)
 
     def _send_ak(self, ep: Endpoint, now: float, sec: int, nsec: int) -> None:
         ep.ak_seq += 1
         ak = int(now - ep.last_ctrl_wall <= self.ak_window_s)
         ep.ak_ones += ak
+        ep.last_ak_sent = ak
         age_ms = min((now - ep.last_ctrl_wall) * 1e3, 1e6)
         values = {"wt": ep.wid, "seq": ep.ak_seq, "ak": ak, "ctrl_rx": ep.counts["ctrl_rx"], "ctrl_age_ms": age_ms}
         hdr = wire.Header(ep.ak_seq, sec, nsec) if self.header else None
@@ -278,11 +281,7 @@ class PlantService:
     # ------------------------------------------------------------------ loop
     def _write_status(self, now: float) -> None:
         status = {"t_sim": self.k * self.step_s, "steps": self.k, "n_steps": self.n_steps,
-                  "late_steps": self.late_steps,
-            "converter_trips": {ep.name: int(self.model.trips[ep.index]) for ep in self.endpoints
-                                if getattr(self.model, "trips", None) is not None and self.model.trips[ep.index]},
-            "fallbacks": {ep.name: int(self.model.fallbacks[ep.index]) for ep in self.endpoints
-                          if getattr(self.model, "fallbacks", None) is not None and self.model.fallbacks[ep.index]}, "t_wall": now,
+                  "late_steps": self.late_steps, "t_wall": now,
                   "meas_tx": sum(ep.counts["meas_tx"] for ep in self.endpoints),
                   "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in self.endpoints),
                   "streaming": [ep.name for ep in self.endpoints if ep.streaming]}
