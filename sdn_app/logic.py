@@ -37,6 +37,7 @@ from sdvisc import wire
 
 ETH_TYPE_LEARN = 0x88B5  # IEEE local experimental ethertype: frames that only teach L2 switches
 PARAM_KEYS = ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")
+SETTLE_S = 0.2  # no SDC-death decision this soon after our own flow changes
 
 
 @dataclass
@@ -80,6 +81,7 @@ class Controller:
         self.wire_stats = wire.DecodeStats()
         self.request_seq = 0
         self.group_ids: dict[int, int] = {}
+        self.t_flow_change = float("-inf")
         self.port_up: dict[tuple[str, int], bool] = {}
         for name, host in config.topology.hosts.items():
             if host.role != "turbine":
@@ -270,6 +272,7 @@ class Controller:
         active.dpids = sorted({f.dpid for f in flows if isinstance(f, fl.FlowAdd)})
         active.reroutes = version
         self.paths[name] = active
+        self.t_flow_change = now
         self.counters["flow_mods"] += sum(isinstance(f, fl.FlowAdd) for f in flows)
         actions = flows + self._learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
         if old is not None:
@@ -406,6 +409,10 @@ class Controller:
     # ------------------------------------------------------------------ SDC failover
     def _check_sdcs(self, now: float) -> list:
         actions: list = []
+        if now - self.t_flow_change < SETTLE_S:
+            # the switches just received flow changes from us; Open vSwitch's userspace datapath
+            # delays their packet-ins (heartbeats, AK) for tens of ms while it revalidates
+            return actions
         stale = [sdc for sdc, t in self.sdc_heartbeat.items() if now - t > self.config.sdc_dead_s]
         if len(self.sdc_heartbeat) > 1 and len(stale) == len(self.sdc_heartbeat):
             # every SDC silent at once: far likelier our own stall (a busy event loop, a switch busy

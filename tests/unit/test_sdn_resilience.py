@@ -171,12 +171,14 @@ def test_all_sdcs_silent_at_once_is_not_a_failover():
     heartbeat(ctl, "sdc1", 1, 0.99)
     heartbeat(ctl, "sdc2", 1, 0.99)
     visc_on(ctl, 1.0)
-    assert ctl.tick(1.1) == []  # both stale: our own stall, not two deaths
+    heartbeat(ctl, "sdc1", 2, 1.30)
+    heartbeat(ctl, "sdc2", 2, 1.30)
+    assert ctl.tick(1.40) == []  # both stale: our own stall, not two deaths
     assert ctl.active_sdc == "sdc1" and not ctl.sdc_dead
-    ak(ctl, 1, 1, 0.001, 1.02)
-    ak(ctl, 2, 0, 0.02, 1.11)  # and wt1_1 has lost its control packets
-    heartbeat(ctl, "sdc2", 2, 1.11)
-    assert ctl.tick(1.12)  # now only sdc1 is silent: fail over
+    ak(ctl, 1, 1, 0.001, 1.32)
+    ak(ctl, 2, 0, 0.02, 1.41)  # and wt1_1 has lost its control packets
+    heartbeat(ctl, "sdc2", 3, 1.41)
+    assert ctl.tick(1.42)  # now only sdc1 is silent: fail over
     assert ctl.active_sdc == "sdc2"
 
 
@@ -185,10 +187,12 @@ def test_late_heartbeats_while_turbines_are_served_are_not_a_death():
     heartbeat(ctl, "sdc1", 1, 0.99)
     heartbeat(ctl, "sdc2", 1, 0.99)
     visc_on(ctl, 1.0)
-    ak(ctl, 1, 1, 0.001, 1.02)
-    heartbeat(ctl, "sdc2", 2, 1.05)
-    ak(ctl, 2, 1, 0.001, 1.06)  # wt1_1 is served fine although sdc1's heartbeats are late
-    assert ctl.tick(1.065) == [] and not ctl.sdc_dead
-    ak(ctl, 3, 0, 0.015, 1.08)  # now wt1_1 has lost its control packets too: sdc1 is dead
-    heartbeat(ctl, "sdc2", 3, 1.08)
-    assert ctl.tick(1.085) and ctl.active_sdc == "sdc2"
+    assert ctl.tick(1.1) == []  # settling after our own flow changes: no decision at all
+    heartbeat(ctl, "sdc1", 2, 1.30)
+    ak(ctl, 1, 1, 0.001, 1.32)
+    heartbeat(ctl, "sdc2", 2, 1.35)
+    ak(ctl, 2, 1, 0.001, 1.36)  # wt1_1 is served fine although sdc1's heartbeats are late
+    assert ctl.tick(1.365) == [] and not ctl.sdc_dead
+    ak(ctl, 3, 0, 0.015, 1.38)  # now wt1_1 has lost its control packets too: sdc1 is dead
+    heartbeat(ctl, "sdc2", 3, 1.38)
+    assert ctl.tick(1.385) and ctl.active_sdc == "sdc2"
