@@ -373,7 +373,10 @@ class Controller:
     def tick(self, now: float) -> list:
         """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state."""
         actions = self._check_sdcs(now)
-        in_visc = [n for n, p in self.paths.items() if p.sdc not in self.sdc_dead]
+        silent = {sdc for sdc, t in self.sdc_heartbeat.items() if now - t > self.config.sdc_dead_s}
+        # a turbine whose SDC is dead or silent is not rerouted: the link is not the likely problem,
+        # and rerouting would keep changing flows while the SDC's fate is being decided
+        in_visc = [n for n, p in self.paths.items() if p.sdc not in self.sdc_dead and p.sdc not in silent]
         for name, t_loss in self.dr.due(in_visc, now):
             if self.config.dynamic_routing:
                 actions += self._reroute(name, "dr", now, t_loss=t_loss)
