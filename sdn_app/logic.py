@@ -38,6 +38,7 @@ from sdvisc import wire
 ETH_TYPE_LEARN = 0x88B5  # IEEE local experimental ethertype: frames that only teach L2 switches
 PARAM_KEYS = ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")
 SETTLE_S = 0.2  # no SDC-death decision this soon after our own flow changes
+CORROBORATE_S = 0.020  # a served turbine's loss must have lasted this long to confirm an SDC death
 
 
 @dataclass
@@ -426,7 +427,8 @@ class Controller:
             if sdc in self.sdc_dead or now - t_last <= self.config.sdc_dead_s:
                 continue
             served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
-            if served and all(self.dr.loss_since(n, now) is None for n in served):
+            lasting = [self.dr.loss_since(n, now) for n in served]
+            if served and not any(t is not None and now - t >= CORROBORATE_S for t in lasting):
                 # its turbines still get control packets: the heartbeats are late (a switch busy
                 # installing flows delays its packet-ins), the SDC is not dead
                 self.counters["sdc_silent_turbines_served"] += 1
