@@ -129,7 +129,8 @@ def test_dead_primary_fails_over_with_address_rewrite(failover):
     heartbeat(ctl, "sdc1", 2, 1.50)  # last heartbeat of the primary
     for i, t in enumerate((1.52, 1.54, 1.56)):
         heartbeat(ctl, "sdc2", 2 + i, t)
-    ak(ctl, 1, 0, 0.02, 1.55)
+    ak(ctl, 1, 1, 0.001, 1.30)
+    ak(ctl, 2, 0, 0.04, 1.54)  # wt1_1 has had no control packet since 1.50
     assert ctl.tick(1.529) == []
     actions = ctl.tick(1.531)
     events = [e["type"] for e in ctl.take_events()]
