@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import select
 import signal
 import sys
@@ -27,6 +26,7 @@ import numpy as np
 
 from plant.recorder import Recorder
 from sdvisc import wire
+from sdvisc.jsonlines import JsonLineReader
 from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
 
@@ -130,18 +130,20 @@ class PlantService:
         self.poller = select.epoll()
         for fd in self.by_fd:
             self.poller.register(fd, select.EPOLLIN)
-        self.stdin_open = cfg.get("stdin_commands", True)
-        if self.stdin_open:
-            os.set_blocking(sys.stdin.fileno(), False)
-            self.poller.register(sys.stdin.fileno(), select.EPOLLIN)
-        self._stdin_buf = b""
+        self.commands = JsonLineReader(sys.stdin.fileno()) if cfg.get("stdin_commands", True) else None
+        if self.commands is not None:
+            self.poller.register(self.commands.fd, select.EPOLLIN)
         self.stop_requested = False
 
     # ------------------------------------------------------------------ receive
     def _drain(self, now: float) -> None:
         for fd, _ in self.poller.poll(0):
-            if fd == sys.stdin.fileno() and self.stdin_open:
-                self._read_stdin()
+            if self.commands is not None and fd == self.commands.fd:
+                for event in self.commands.read():
+                    self._apply_event(event)
+                if not self.commands.open:
+                    self.poller.unregister(self.commands.fd)
+                    self.commands = None
                 continue
             ep = self.by_fd[fd]
             while True:
@@ -201,21 +203,6 @@ class PlantService:
             self.model.set_mode(ep.index, "grid_following")
             self.events_applied.append({"t": t_sim, "type": "stream_stop", "wt": ep.name})
 
-    def _read_stdin(self) -> None:
-        try:
-            chunk = os.read(sys.stdin.fileno(), 65536)
-        except BlockingIOError:
-            return
-        if not chunk:
-            self.poller.unregister(sys.stdin.fileno())
-            self.stdin_open = False
-            return
-        self._stdin_buf += chunk
-        while b"\n" in self._stdin_buf:
-            line, self._stdin_buf = self._stdin_buf.split(b"\n", 1)
-            if line.strip():
-                self._apply_event(json.loads(line))
-
     def _apply_event(self, event: dict) -> None:
         kind = event["type"]
         m = self.model
@@ -262,11 +249,10 @@ class PlantService:
                 ep.counts["meas_tx_error"] += 1
             ak_now = int(now - ep.last_ctrl_wall <= self.ak_window_s)
             if send_ak or ak_now != ep.last_ak_sent:  # periodic, and at once on every change
-                self._send_ak(ep, now, sec, nsec)
+                self._send_ak(ep, ak_now, now, sec, nsec)
 
-    def _send_ak(self, ep: Endpoint, now: float, sec: int, nsec: int) -> None:
+    def _send_ak(self, ep: Endpoint, ak: int, now: float, sec: int, nsec: int) -> None:
         ep.ak_seq += 1
-        ak = int(now - ep.last_ctrl_wall <= self.ak_window_s)
         ep.ak_ones += ak
         ep.last_ak_sent = ak
         age_ms = min((now - ep.last_ctrl_wall) * 1e3, 1e6)

@@ -18,6 +18,8 @@ import threading
 import time
 from pathlib import Path
 
+from mininet.node import RemoteController
+
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from sdvisc import cleanup, wire
@@ -36,6 +38,14 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
+
+
+class CheckedController(RemoteController):
+    """Mininet's RemoteController without its telnet probe: the runner checks the port itself, and
+    the probe can choke on the OpenFlow HELLO bytes os-ken sends back (UnicodeDecodeError)."""
+
+    def checkListening(self):
+        pass
 
 
 def _raise_interrupt(signum, frame):
@@ -86,7 +96,6 @@ class Run:
     def build(self) -> None:
         from mininet.log import setLogLevel
         from mininet.net import Mininet
-        from mininet.node import RemoteController
 
         setLogLevel("warning")
         sc = self.scenario
@@ -117,13 +126,6 @@ class Run:
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
         self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
                            waitConnected=False)
-        class CheckedController(RemoteController):
-            """The runner checks the port itself; Mininet's telnet probe can choke on the OpenFlow
-            HELLO bytes os-ken sends back (UnicodeDecodeError)."""
-
-            def checkListening(self):
-                pass
-
         self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=port)
         if sc.sdn.redundancy:
             self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=port2)

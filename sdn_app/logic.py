@@ -83,6 +83,15 @@ class Controller:
         self.request_seq = 0
         self.group_ids: dict[int, int] = {}
         self.t_flow_change = float("-inf")
+        self._handlers = {
+            wire.MsgType.REQUEST: self._on_request,
+            wire.MsgType.AK: self._on_ak,
+            wire.MsgType.REPLY: self._on_reply,
+            wire.MsgType.HEARTBEAT: self._on_heartbeat,
+        }
+        hosts = config.topology.hosts
+        self._sdc_by_addr = {(hosts[n].ip, hosts[n].mac): n for n in (config.primary_sdc, config.backup_sdc)
+                             if n in hosts}
         self.port_up: dict[tuple[str, int], bool] = {}
         for name, host in config.topology.hosts.items():
             if host.role != "turbine":
@@ -373,8 +382,8 @@ class Controller:
 
     def tick(self, now: float) -> list:
         """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state."""
-        actions = self._check_sdcs(now)
         silent = {sdc for sdc, t in self.sdc_heartbeat.items() if now - t > self.config.sdc_dead_s}
+        actions = self._check_sdcs(now, silent)
         # a turbine whose SDC is dead or silent is not rerouted: the link is not the likely problem,
         # and rerouting would keep changing flows while the SDC's fate is being decided
         in_visc = [n for n, p in self.paths.items() if p.sdc not in self.sdc_dead and p.sdc not in silent]
@@ -411,21 +420,20 @@ class Controller:
         return actions
 
     # ------------------------------------------------------------------ SDC failover
-    def _check_sdcs(self, now: float) -> list:
+    def _check_sdcs(self, now: float, silent: set[str]) -> list:
+        """Decide which silent SDCs (no heartbeat for ``sdc_dead_s``) are dead, and fail over."""
         actions: list = []
         if now - self.t_flow_change < SETTLE_S:
             # the switches just received flow changes from us; Open vSwitch's userspace datapath
             # delays their packet-ins (heartbeats, AK) for tens of ms while it revalidates
             return actions
-        stale = [sdc for sdc, t in self.sdc_heartbeat.items() if now - t > self.config.sdc_dead_s]
-        if len(self.sdc_heartbeat) > 1 and len(stale) == len(self.sdc_heartbeat):
+        if len(self.sdc_heartbeat) > 1 and len(silent) == len(self.sdc_heartbeat):
             # every SDC silent at once: far likelier our own stall (a busy event loop, a switch busy
             # revalidating) than all SDCs dying together; decide nothing until heartbeats are seen
             self.counters["sdc_check_all_stale"] += 1
             return actions
-        for sdc, t_last in list(self.sdc_heartbeat.items()):
-            if sdc in self.sdc_dead or now - t_last <= self.config.sdc_dead_s:
-                continue
+        for sdc in sorted(silent - self.sdc_dead):
+            t_last = self.sdc_heartbeat[sdc]
             served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
             lasting = [self.dr.loss_since(n, now) for n in served]
             if served and not any(t is not None and now - t >= CORROBORATE_S for t in lasting):
@@ -484,12 +492,7 @@ class Controller:
         if msg is None:
             self.counters["drop_malformed"] += 1
             return []
-        handler = {
-            wire.MsgType.REQUEST: self._on_request,
-            wire.MsgType.AK: self._on_ak,
-            wire.MsgType.REPLY: self._on_reply,
-            wire.MsgType.HEARTBEAT: self._on_heartbeat,
-        }.get(msg.type)
+        handler = self._handlers.get(msg.type)
         if handler is None:
             self.counters["drop_unexpected_type"] += 1
             return []
@@ -580,8 +583,8 @@ class Controller:
         return []
 
     def _on_heartbeat(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
-        sdc = next((n for n, h in self.config.topology.hosts.items() if h.ip == src_ip and h.mac == src_mac), None)
-        if sdc is None or sdc not in (self.config.primary_sdc, self.config.backup_sdc):
+        sdc = self._sdc_by_addr.get((src_ip, src_mac))
+        if sdc is None:
             self.counters["drop_heartbeat_unknown"] += 1
             return []
         self.counters["heartbeats"] += 1

@@ -74,12 +74,6 @@ class Tables:
     def lookup(self, name: str) -> TurbineAddress | None:
         return self.t1.get(name)
 
-    def by_ip(self, ip: str) -> TurbineAddress | None:
-        for row in self.t1.values():
-            if row.ip == ip:
-                return row
-        return None
-
     # --- T2 -----------------------------------------------------------------------------------
     def set_mode(self, name: str, visc: bool) -> None:
         """Set the current mode; ViSC (``1/y``) needs ``y`` = 1 (enabled)."""

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import select
 import socket
 import sys
@@ -24,6 +23,7 @@ import time
 from pathlib import Path
 
 from sdvisc import wire
+from sdvisc.jsonlines import JsonLineReader
 
 COMMANDS = {"visc_on": wire.Command.VISC_ON, "visc_off": wire.Command.VISC_OFF,
             "set_params": wire.Command.SET_PARAMS}
@@ -111,25 +111,16 @@ class Owfcc:
 
     def run(self) -> None:
         poller = select.epoll()
-        stdin_fd = sys.stdin.fileno()
-        os.set_blocking(stdin_fd, False)
-        poller.register(stdin_fd, select.EPOLLIN)
+        commands = JsonLineReader(sys.stdin.fileno())
+        poller.register(commands.fd, select.EPOLLIN)
         poller.register(self.sock.fileno(), select.EPOLLIN)
-        buf = b""
-        stdin_open = True
-        while stdin_open or self.pending:
+        while commands.open or self.pending:
             for fd, _ in poller.poll(0.05):
-                if fd == stdin_fd:
-                    chunk = os.read(stdin_fd, 65536)
-                    if not chunk:
-                        poller.unregister(stdin_fd)
-                        stdin_open = False
-                        continue
-                    buf += chunk
-                    while b"\n" in buf:
-                        line, buf = buf.split(b"\n", 1)
-                        if line.strip():
-                            self.submit(json.loads(line))
+                if fd == commands.fd:
+                    for command in commands.read():
+                        self.submit(command)
+                    if not commands.open:
+                        poller.unregister(commands.fd)
                 else:
                     self._on_reply()
             self._retry()
