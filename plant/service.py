@@ -137,6 +137,9 @@ class PlantService:
 
     # ------------------------------------------------------------------ receive
     def _drain(self, now: float) -> None:
+        """Read every waiting datagram and command; the newest control output per turbine is then
+        applied to the model in one vectorised call."""
+        newest: dict[int, wire.Message] = {}
         for fd, _ in self.poller.poll(0):
             if self.commands is not None and fd == self.commands.fd:
                 for event in self.commands.read():
@@ -156,18 +159,24 @@ class PlantService:
                     ep.counts["rx_rejected"] += 1
                     continue
                 if msg.type == wire.MsgType.CTRL:
-                    self._on_ctrl(ep, msg, now)
+                    if self._on_ctrl(ep, msg, now) and ep.streaming:
+                        newest[ep.index] = msg
                 elif msg.type == wire.MsgType.REQUEST:
                     self._on_request(ep, msg)
                 else:
                     ep.counts["rx_rejected"] += 1
+        if newest:
+            index = np.fromiter(newest, dtype=np.intp, count=len(newest))
+            field = {k: np.array([m[k] for m in newest.values()]) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q")}
+            self.model.apply_remote(index, field["v_ref_d"], field["v_ref_q"], field["i_ref_d"], field["i_ref_q"])
 
-    def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
+    def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> bool:
+        """Account for one CTRL; True if it is the newest so far (the one to apply)."""
         # ordered by the measurement it answers (our own counter, whichever SDC answered it):
         # a duplicate or out-of-order answer is never applied after a newer one
         if msg["meas_seq"] <= ep.ctrl_seq:
             ep.counts["ctrl_stale"] += 1
-            return
+            return False
         ep.ctrl_seq = msg["meas_seq"]
         ep.counts["ctrl_rx"] += 1
         if ep.last_ctrl_wall > float("-inf") and now - ep.last_ctrl_wall > CTRL_GAP_S:
@@ -185,9 +194,7 @@ class PlantService:
             ep.first_ctrl_rx_t = t_sim
         if msg.header is not None and len(ep.ctrl_delays_ms) < 200_000:
             ep.ctrl_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
-        if ep.streaming:
-            self.model.apply_remote(np.array([ep.index]), np.array([msg["v_ref_d"]]), np.array([msg["v_ref_q"]]),
-                                    np.array([msg["i_ref_d"]]), np.array([msg["i_ref_q"]]))
+        return True
 
     def _on_request(self, ep: Endpoint, msg: wire.Message) -> None:
         ep.counts["requests_rx"] += 1
