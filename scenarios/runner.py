@@ -283,7 +283,10 @@ class Run:
         return inner[hop % len(inner)] if inner else None
 
     def set_link(self, a: str, b: str, up: bool) -> float:
-        """Set the link a–b up or down; returns the wall time at which its first end changed.
+        """Set the link a–b up or down; returns the wall time just before its first end was changed.
+
+        The time is taken before the command (not after it returns, which is 1–3 ms later), so a
+        recovery time measured from it can only be over-, never under-estimated.
 
         Switch ends live in the root namespace and are set with ``ip link`` directly (a veth whose
         peer is down has no carrier, so the first end takes the link down at once); host ends go
@@ -298,11 +301,11 @@ class Run:
             self.links_down.add(tuple(sorted((a, b))))
         t_first = None
         for intf in (links[0].intf1, links[0].intf2):
+            t_first = t_first or time.time()
             if intf.node in self.net.switches:
                 subprocess.run(["ip", "link", "set", "dev", intf.name, state], check=False)
             else:
                 intf.node.cmd(f"ip link set dev {intf.name} {state}")
-            t_first = t_first or time.time()
         return t_first
 
     def play(self) -> None:
