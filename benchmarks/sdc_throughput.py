@@ -10,8 +10,9 @@ Two measurements, both on this machine, both of what ``sdc_unit.service`` does p
 
 * offline (``steps_per_s``): back-to-back ``ControllerBank.step`` on N slots with realistic
   measurements (N turbines at different operating points with a small ripple), and the same plus
-  ``sdvisc.wire.decode`` of one MEAS and ``encode`` of one CTRL per instance (the service's round:
-  decode N packets, build the measurement arrays, one vectorised bank step, encode N replies).
+  the service's wire work: the N MEAS datagrams decoded and checked together
+  (``sdvisc.wire_batch.decode_batch``), one vectorised bank step, the N CTRL replies packed together
+  (``encode_batch``), as ``sdc_unit.service`` does per round.
 * real time (``max_instances_realtime``): a paced loop, one period per Ts; each period decodes N
   pre-encoded MEAS packets, takes one bank step and encodes N CTRL packets. Sample k is released at
   t0 + k Ts (a plant does not wait) and is late if its round finishes after t0 + (k + 1) Ts; a late
@@ -42,11 +43,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sdc_unit.bank import ControllerBank  # noqa: E402
 from sdvisc import wire  # noqa: E402
+from sdvisc.wire_batch import decode_batch, encode_batch  # noqa: E402
 
 TS = 0.67e-3
 LATE_LIMIT = 0.01
 N_SAMPLES = 64  # distinct pre-encoded measurement samples per turbine (cycled)
-CTRL_KEYS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")
+CTRL_KEYS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")  # as sdc_unit.service
 
 
 # --------------------------------------------------------------------------- workload
@@ -116,20 +118,17 @@ class ServiceRound:
 
     def full(self) -> int:
         """Returns the number of CTRL bytes produced (keeps the work observable)."""
-        msgs = [self.stats.decode(b, header=self.header) for b in self.packets[self.k % N_SAMPLES]]
-        meas = {key: np.array([m[key] for m in msgs]) for key in ControllerBank.MEAS_KEYS}
+        rec, _ = decode_batch(self.packets[self.k % N_SAMPLES], wire.MsgType.MEAS, header=self.header, stats=self.stats)
+        meas = {key: rec[key].astype(float) for key in ControllerBank.MEAS_KEYS}
         out, valid = self.bank.step(self.slots, meas)
         now = time.time()
         sec = int(now)
         self.ctrl_seq += 1
-        nbytes = 0
-        for j, m in enumerate(msgs):
-            if not valid[j]:
-                continue
-            values = {"wt": m["wt"], "seq": self.ctrl_seq, "meas_seq": m["seq"],
-                      **{key: float(out[key][j]) for key in CTRL_KEYS}, "flags": int(out["limited"][j])}
-            hdr = wire.Header(self.ctrl_seq, sec, int((now - sec) * 1e9)) if self.header else None
-            nbytes += len(wire.encode(wire.MsgType.CTRL, values, header=hdr))
+        cols = {key: out[key][valid] for key in CTRL_KEYS}
+        cols.update(wt=rec["wt"][valid], seq=self.ctrl_seq, meas_seq=rec["seq"][valid],
+                    flags=out["limited"][valid].astype(int))
+        hdr = (self.ctrl_seq, sec, int((now - sec) * 1e9)) if self.header else None
+        nbytes = sum(len(b) for b in encode_batch(wire.MsgType.CTRL, cols, header=hdr))
         self.k += 1
         return nbytes
 

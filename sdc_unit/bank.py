@@ -137,17 +137,15 @@ class ControllerBank:
         return self._step_visc(slots, meas, usable, used, all_usable)
 
     def _step_visc(self, slots, meas, usable, used, all_usable):
-        full = {}
-        for k in self.MEAS_KEYS:
-            a = np.zeros(self.capacity)
-            a[used] = meas[k] if all_usable else meas[k][usable]
-            full[k] = a
+        rows = np.array([meas[k] for k in self.MEAS_KEYS], dtype=float)
+        full = np.zeros((len(self.MEAS_KEYS), self.capacity))
+        full[:, used] = rows if all_usable else rows[:, usable]
         saved = self.visc.active.copy()
         stepping = np.zeros(self.capacity, dtype=bool)
         stepping[used] = True
         self.visc.active &= stepping
         try:
-            result = self.visc.step(SimpleNamespace(**full))
+            result = self.visc.step(SimpleNamespace(**dict(zip(self.MEAS_KEYS, full))))
         finally:
             self.visc.active[:] = saved
         valid = usable & result.valid[slots]

@@ -75,6 +75,10 @@ def tustin_swing_coeffs(h, d, ts):
 
 # --------------------------------------------------------------------------- base
 def _arr(x, n, dtype):
+    if type(x) is np.ndarray and x.dtype == dtype and x.shape == (n,):
+        return x  # already in the working precision (the common case inside a step): no copy
+    if np.ndim(x) == 0:
+        return np.full(n, float(x), dtype=dtype)
     return np.ascontiguousarray(np.broadcast_to(np.asarray(x, dtype=float), (n,)).astype(dtype))
 
 
@@ -105,6 +109,7 @@ class _Block:
 
     def restore(self, index: int, state: dict[str, float]) -> None:
         for k in self.s:
+            self.s[k] = self.s[k].copy()  # states may share memory with other arrays: never write in place
             self.s[k][index] = self.dtype.type(state[k])
 
 

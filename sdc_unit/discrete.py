@@ -23,6 +23,19 @@ from . import law
 from .blocks import METHODS, make_first_order, make_pi, make_swing
 from .law import MEAS_FIELDS, Outputs
 from .params import RUNTIME_PARAMS, ViscParams
+from .tustin_pass import tustin_pass
+
+try:  # the compiled Tustin step; without numba the numpy pass is used (same results, slower)
+    from . import tustin_jit as jit
+except ImportError:  # pragma: no cover - numba is a declared dependency
+    jit = None
+
+ENGINES = ("auto", "jit", "numpy", "blocks")
+"""How a Tustin sample is evaluated: "blocks" calls one block object per transfer function (the
+reference, and the only engine of the other methods); "numpy" is the same arithmetic written out
+(:mod:`sdc_unit.tustin_pass`, bit-identical); "jit" is it compiled with numba
+(:mod:`sdc_unit.tustin_jit`; float64 bit-identical, float32 to a few ulps, from the
+float32 cos/sin); "auto" = "jit" when available, else "numpy"."""
 
 OUT_FIELDS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "v_f", "p_e")
 
@@ -34,11 +47,13 @@ class DiscreteVisc:
     ``method`` in ("tustin", "trapezoid_cumulative", "euler"), ``dtype`` float64 or float32 (all
     state and arithmetic). In "trapezoid_cumulative" the PIs and the swing use the explicit running
     sums of eq. (13); the first-order filters use Tustin (the trapezoidal rule of a first-order lag
-    is its Tustin recursion). Instances start inactive; call :meth:`initialise` (or
-    :meth:`restore`) first.
+    is its Tustin recursion). ``engine`` (see :data:`ENGINES`) chooses how a Tustin sample is
+    evaluated; every engine gives the same trajectory. Instances start inactive; call
+    :meth:`initialise` (or :meth:`restore`) first.
     """
 
-    def __init__(self, n: int, params: ViscParams | None = None, ts: float = 0.67e-3, method: str = "tustin", dtype=np.float64):
+    def __init__(self, n: int, params: ViscParams | None = None, ts: float = 0.67e-3, method: str = "tustin", dtype=np.float64,
+                 engine: str = "auto"):
         if method not in METHODS:
             raise ValueError(f"method must be one of {METHODS}")
         self.n = int(n)
@@ -50,6 +65,7 @@ class DiscreteVisc:
             raise ValueError("dtype must be float64 or float32")
         self.k = 0  # step counter; time = k * ts
         p, n, ts, dt = self.p, self.n, self.ts, self.dtype
+        self.dtype_params = _DtypeParams(p, dt)
         self.w0 = p.omega0
         # run-time parameters, one per instance
         self.rp = {name: np.full(n, float(getattr(p, name))) for name in RUNTIME_PARAMS}
@@ -91,6 +107,12 @@ class DiscreteVisc:
         self.last = {f: np.zeros(n) for f in OUT_FIELDS}
         self.last_limited = np.zeros(n, dtype=bool)
         self.active = np.zeros(n, dtype=bool)
+        if engine not in ENGINES:
+            raise ValueError(f"engine must be one of {ENGINES}")
+        self.engine = engine
+        self._jit = self._jit_tables() if method == "tustin" and engine in ("auto", "jit") else None
+        if engine == "jit" and self._jit is None:
+            raise ValueError("engine 'jit' needs method 'tustin', numba and scalar switches")
 
     # ------------------------------------------------------------------ helpers
     def _mask(self, index) -> np.ndarray:
@@ -105,7 +127,13 @@ class DiscreteVisc:
 
     def _meas(self, meas):
         """Sanitised measurements in dtype and the per-instance finiteness mask."""
-        raw = {f: np.broadcast_to(np.asarray(getattr(meas, f), dtype=float), (self.n,)) for f in MEAS_FIELDS}
+        fields = [getattr(meas, f) for f in MEAS_FIELDS]
+        if all(type(v) is np.ndarray and v.shape == (self.n,) for v in fields):  # one stacked pass
+            raw = np.array(fields, dtype=float)
+            finite = np.isfinite(raw).all(axis=0)
+            clean = np.where(finite, raw, 0.0).astype(self.dtype)
+            return dict(zip(MEAS_FIELDS, clean)), finite
+        raw = {f: np.broadcast_to(np.asarray(v, dtype=float), (self.n,)) for f, v in zip(MEAS_FIELDS, fields)}
         finite = np.ones(self.n, dtype=bool)
         for v in raw.values():
             finite &= np.isfinite(v)
@@ -116,19 +144,99 @@ class DiscreteVisc:
         return np.broadcast_to(np.asarray(x, dtype=float), (self.n,)).astype(self.dtype)
 
     # ------------------------------------------------------------------ core
-    def _advance(self, m: dict, mask: np.ndarray, lim_pred=None, trial: bool = False):
+    def _advance(self, m: dict, mask: np.ndarray):
         """One sample. The limiter decides P_e (swing), the v_f hold and the AVR anti-windup of the
-        SAME sample: a trial pass without committing any state predicts the limiter state
-        (``lim_pred``), then the committed pass uses it (no one-sample lag, no algebraic loop)."""
-        if lim_pred is None:
-            lim_pred = self._advance(
-                m, np.zeros(self.n, dtype=bool), lim_pred=(self.mem["limited"] > 0, None, None), trial=True
-            )
+        SAME sample: a trial pass predicts the limiter state from the last one, then the committed
+        pass uses that prediction (no one-sample lag, no algebraic loop).
+
+        When no stepped instance was limited at the last sample and none is in the trial, the
+        committed pass would repeat the trial's arithmetic exactly (P_e is the measured p, nothing
+        is held), so the trial is kept as the result. Otherwise the trial's states are rolled back
+        (blocks replace their state arrays, never write into them, so keeping the old references
+        is a complete snapshot) and the committed pass runs."""
+        lim_last = self.mem["limited"] > 0
+        if self.method == "tustin" and self.engine != "blocks":
+            return self._advance_tustin(m, mask, lim_last)
+        saved = [(b, dict(b.s)) for b in self.blocks.values()]
+        trial = self._pass(m, mask, (lim_last, self.mem["ild"], self.mem["ilq"]))
+        limited = trial[2]
+        if not (np.any(lim_last & mask) or np.any(limited & mask)):
+            return self._commit_pass(mask, *trial)
+        for b, states in saved:
+            b.s = states
+        lim_pred = (limited, trial[0]["ild"], trial[0]["ilq"])
+        return self._commit_pass(mask, *self._pass(m, mask, lim_pred))
+
+    def _advance_tustin(self, m: dict, mask: np.ndarray, lim_last: np.ndarray) -> np.ndarray:
+        """The same two-pass logic, compiled (:mod:`sdc_unit.tustin_jit`) or, without numba, with
+        the written-out numpy pass (:mod:`sdc_unit.tustin_pass`), which returns its states so that
+        they are committed once."""
+        if self._jit is not None:
+            return self._advance_jit(m, mask)
+        mem = self.mem
+        new, new_mem, out, limited = tustin_pass(self, m, (lim_last, mem["ild"], mem["ilq"]))
+        if np.any(lim_last & mask) or np.any(limited & mask):
+            new, new_mem, out, limited = tustin_pass(self, m, (limited, new_mem["ild"], new_mem["ilq"]))
+        dt = self.dtype  # one masked select over all states (the rows become the new state arrays)
+        merged = np.where(mask, np.array([arr for _, _, arr in new], dtype=dt),
+                          np.array([b.s[name] for b, name, _ in new], dtype=dt))
+        for (b, name, _), row in zip(new, merged):
+            b.s[name] = row
+        return self._commit_pass(mask, new_mem, out, limited)
+
+    def _jit_tables(self):
+        """Constants and flags of the compiled step, or None where it cannot be used."""
+        if jit is None:
+            return None
+        p, dt = self.p, self.dtype
+        flags = (p.freeze_vf_when_limited, p.omega_s_measured, p.avr_antiwindup, p.ff_filtered, self.swing.wrap)
+        if any(np.ndim(f) for f in flags):
+            return None  # per-instance switches: the numpy pass handles them
+        consts = dict(one=1.0, zero=0.0, two=2.0, two_pi=2.0 * np.pi, swing_scale_ts=self.swing.scale * self.ts,
+                      p_ref=p.p_ref, e_ref=p.e_ref, i_max=p.i_max, l_f=p.l_f, r_v=p.r_v, l_v=p.l_v,
+                      lpf_d_dc=self.lpf_d.dc, lpf_q_dc=self.lpf_q.dc)
+        return (np.array([consts[k] for k in jit.CONST_NAMES], dtype=dt), np.array([bool(f) for f in flags], dtype=np.int64))
+
+    def _advance_jit(self, m: dict, mask: np.ndarray) -> np.ndarray:
+        dt, blocks = self.dtype, self.blocks
+        consts, flags = self._jit
+        x = np.array([blocks[b].s[s] for b, s in jit.STATE_ROWS], dtype=dt)
+        coef = np.array([getattr(blocks[b], c) for b, c in jit.COEF_ROWS], dtype=dt)
+        meas = np.array([m[k] for k in jit.MEAS_ROWS], dtype=dt)
+        refs = np.array([self.rp[k] for k in jit.REF_ROWS]).astype(dt)
+        mem = np.array([self.mem[k] for k in jit.MEM_ROWS], dtype=dt)
+        out = np.zeros((len(jit.OUT_ROWS), self.n), dtype=dt)
+        limited = np.zeros(self.n, dtype=bool)
+        jit.tustin_step(x, coef, consts, flags, meas, refs, mem, mask, out, limited)
+        for (b, s), row in zip(jit.STATE_ROWS, x):
+            blocks[b].s[s] = row
+        self.mem.update(zip(jit.MEM_ROWS, mem))
+        outs = out.astype(float)
+        ok = mask & np.isfinite(outs).all(axis=0)
+        last = np.where(ok, outs, np.array([self.last[f] for f in jit.OUT_ROWS], dtype=float))
+        self.last.update(zip(jit.OUT_ROWS, last))
+        self.last_limited = np.where(ok, limited, self.last_limited)
+        return ok
+
+    def _commit_pass(self, mask: np.ndarray, new_mem: dict, out: dict, limited: np.ndarray) -> np.ndarray:
+        dt = self.dtype  # stacked selects; the dicts hold rows of the results
+        keys = tuple(new_mem)
+        mem = np.where(mask, np.array([new_mem[k] for k in keys], dtype=dt), np.array([self.mem[k] for k in keys], dtype=dt))
+        self.mem.update(zip(keys, mem))
+        outs = np.array([out[f] for f in OUT_FIELDS], dtype=float)
+        ok = mask & np.isfinite(outs).all(axis=0)
+        last = np.where(ok, outs, np.array([self.last[f] for f in OUT_FIELDS], dtype=float))
+        self.last.update(zip(OUT_FIELDS, last))
+        self.last_limited = np.where(ok, limited, self.last_limited)
+        return ok
+
+    def _pass(self, m: dict, mask: np.ndarray, lim_pred):
+        """Evaluate one sample with the limiter state ``lim_pred`` = (limited, i_d, i_q) assumed for
+        P_e, the v_f hold and the AVR anti-windup; block states are committed where ``mask``.
+        Returns (new memory, outputs, limited)."""
         p, dt, c = self.p, self.dtype, self._c
         one = dt.type(1.0)
         lim_prev, ild_pred, ilq_pred = lim_pred
-        if ild_pred is None:
-            ild_pred, ilq_pred = self.mem["ild"], self.mem["ilq"]
         hold = lim_prev if p.freeze_vf_when_limited else None
         vfd = self.lpf_d.step(m["v_d"], mask, hold)
         vfq = self.lpf_q.step(m["v_q"], mask, hold)
@@ -151,18 +259,14 @@ class DiscreteVisc:
         u = self.avr.step(e, mask, lim_prev if p.avr_antiwindup else None)
         e_mag = u + c(p.e_ref) + vfr_app
         # quasi-stationary model and limiter
-        isd, isq = law.qsem_current(e_mag, delta, vfd, vfq, omega, _DtypeParams(p, dt))
+        isd, isq = law.qsem_current(e_mag, delta, vfd, vfq, omega, self.dtype_params)
         ild, ilq, limited = law.circular_limit(isd, isq, dt.type(p.i_max))
         # inner current loop
         lf = dt.type(p.l_f)
         ffd, ffq = (vfd, vfq) if p.ff_filtered else (m["v_d"], m["v_q"])
         v_ref_d = ffd - lf * m["i_q"] + self.pi_d.step(ild - m["i_d"], mask)
         v_ref_q = ffq + lf * m["i_d"] + self.pi_q.step(ilq - m["i_q"], mask)
-        if trial:  # trial pass: report the predicted limiter state only
-            return (limited, ild, ilq)
         new_mem = dict(limited=limited.astype(dt), ild=ild, ilq=ilq, vmag=vmag, q=m["q"], vfr=vfr)
-        for k, v in new_mem.items():
-            self.mem[k] = np.where(mask, v, self.mem[k]).astype(dt)
         out = dict(
             v_ref_d=v_ref_d,
             v_ref_q=v_ref_q,
@@ -174,13 +278,7 @@ class DiscreteVisc:
             v_f=vfr_app,
             p_e=p_e,
         )
-        ok = mask.copy()
-        for v in out.values():
-            ok &= np.isfinite(v)
-        for f in OUT_FIELDS:
-            self.last[f] = np.where(ok, out[f], self.last[f]).astype(float)
-        self.last_limited = np.where(ok, limited, self.last_limited)
-        return ok
+        return new_mem, out, limited
 
     def step(self, meas) -> Outputs:
         """One sample for all active instances with finite measurements.

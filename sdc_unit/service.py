@@ -44,8 +44,10 @@ from sdc_unit.bank import ControllerBank
 from sdvisc import wire
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
+from sdvisc.wire_batch import decode_batch, encode_batch, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
+CTRL_FLOATS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")
 STANDBY_MODES = ("latest", "track")
 
 
@@ -84,6 +86,7 @@ class SdcService:
         self.bank = ControllerBank(capacity=int(cfg.get("capacity", 64)) + 1, step_s=float(cfg["step_s"]),
                                    method=cfg.get("method", "tustin"), dtype=cfg.get("dtype", "float64"))
         self.rx_stats = wire.DecodeStats()
+        self.rx_records = np.zeros(0, dtype=record_dtype(wire.MsgType.MEAS, self.header))
         self.hb_seq = 0
         self.unexpected_rx = 0
         self.events: list[dict] = []
@@ -140,71 +143,97 @@ class SdcService:
                          self.controller)
 
     # ------------------------------------------------------------------ measurements
-    def _drain(self, now: float) -> dict[int, list[tuple[wire.Message, tuple]]]:
-        """Read every waiting datagram; returns the usable measurements per turbine, in order."""
-        batch: dict[int, list[tuple[wire.Message, tuple]]] = {}
+    def _drain(self, now: float) -> dict[int, list[tuple[int, tuple]]]:
+        """Read every waiting datagram; returns, per turbine and in order, the usable measurements
+        as (row of ``self.rx_records``, sender address). MEAS datagrams are decoded together
+        (:func:`sdvisc.wire_batch.decode_batch`), anything else one by one, as it arrives."""
+        meas_data: list[bytes] = []
+        meas_addr: list[tuple] = []
         while True:
             try:
                 data, addr = self.sock.recvfrom(2048)
             except BlockingIOError:
-                return batch
+                break
+            if is_type(data, wire.MsgType.MEAS, self.header):
+                meas_data.append(data)
+                meas_addr.append(addr)
+                continue
             msg = self.rx_stats.decode(data, header=self.header)
             if msg is None:
                 continue
             if msg.type == wire.MsgType.REQUEST:
                 self._on_request(msg, now)
-                continue
-            if msg.type != wire.MsgType.MEAS:
+            else:
                 self.unexpected_rx += 1
-                continue
-            inst = self._instance(msg["wt"])
-            if msg["seq"] <= inst.last_seq:
+        batch: dict[int, list[tuple[int, tuple]]] = {}
+        if not meas_data:
+            return batch
+        rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
+        self.rx_records = rec
+        delays = ((now - (rec["hdr_sec"] + rec["hdr_nsec"] * 1e-9)) * 1e3).tolist() if self.header else None
+        for j, (wid, seq, t_sim) in enumerate(zip(rec["wt"].tolist(), rec["seq"].tolist(), rec["t_sim"].tolist())):
+            inst = self._instance(wid)
+            if seq <= inst.last_seq:
                 inst.counts["meas_stale"] += 1
                 continue
             if not inst.active:
                 if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
-                    inst.last_seq = msg["seq"]
+                    inst.last_seq = seq
                     inst.counts["meas_tracked"] += 1
                     if self.standby == "track":
                         self.bank.track(np.array([inst.slot]),
-                                        {k: np.array([msg[k]]) for k in ControllerBank.MEAS_KEYS})
+                                        {k: rec[k][j:j + 1].astype(float) for k in ControllerBank.MEAS_KEYS})
                 else:
                     inst.counts["meas_inactive"] += 1
                 continue
-            if inst.last_seq >= 0 and msg["seq"] > inst.last_seq + 1:
-                inst.counts["meas_lost"] += msg["seq"] - inst.last_seq - 1
-            inst.last_seq = msg["seq"]
-            if msg.header is not None and len(inst.meas_delays_ms) < 200_000:
-                inst.meas_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
+            if inst.last_seq >= 0 and seq > inst.last_seq + 1:
+                inst.counts["meas_lost"] += seq - inst.last_seq - 1
+            inst.last_seq = seq
+            if delays is not None and len(inst.meas_delays_ms) < 200_000:
+                inst.meas_delays_ms.append(delays[j])
             inst.counts["meas_rx"] += 1
             if inst.first_meas_rx_t is None:
-                inst.first_meas_rx_t = msg["t_sim"]
-            batch.setdefault(msg["wt"], []).append((msg, addr))
+                inst.first_meas_rx_t = t_sim
+            batch.setdefault(wid, []).append((j, meas_addr[int(index[j])]))
+        return batch
 
-    def _serve(self, batch: dict[int, list[tuple[wire.Message, tuple]]], now: float) -> None:
+    def _serve(self, batch: dict[int, list[tuple[int, tuple]]], now: float) -> None:
         """One controller step per measurement, in sequence order; turbines stepped together."""
         depth = max((len(v) for v in batch.values()), default=0)
         for r in range(depth):
             self._serve_round({w: v[r] for w, v in batch.items() if len(v) > r}, now)
 
-    def _serve_round(self, newest: dict[int, tuple[wire.Message, tuple]], now: float) -> None:
+    def _serve_round(self, newest: dict[int, tuple[int, tuple]], now: float) -> None:
+        """Step the turbines of one round together and answer each with one CTRL (one batch encode)."""
         insts = [self.instances[w] for w in newest]
-        slots = np.array([i.slot for i in insts])
-        meas = {k: np.array([newest[i.wid][0][k] for i in insts]) for k in ControllerBank.MEAS_KEYS}
-        out, valid = self.bank.step(slots, meas)
-        for j, inst in enumerate(insts):
-            if not valid[j]:
-                inst.counts["ctrl_invalid"] += 1
-                continue
-            msg, addr = newest[inst.wid]
+        rows = np.fromiter((newest[i.wid][0] for i in insts), dtype=np.intp, count=len(insts))
+        rec = self.rx_records[rows]
+        slots = np.fromiter((i.slot for i in insts), dtype=np.intp, count=len(insts))
+        out, valid = self.bank.step(slots, {k: rec[k].astype(float) for k in ControllerBank.MEAS_KEYS})
+        for inst in (i for i, ok in zip(insts, valid.tolist()) if not ok):
+            inst.counts["ctrl_invalid"] += 1
+        sent = [i for i, ok in zip(insts, valid.tolist()) if ok]
+        if not sent:
+            return
+        seqs = []
+        for inst in sent:
             inst.ctrl_seq += 1
-            values = {"wt": inst.wid, "seq": inst.ctrl_seq, "meas_seq": msg["seq"],
-                      **{k: float(out[k][j]) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta",
-                                                        "omega", "e_mag")},
-                      "flags": int(out["limited"][j]) | (2 if self.role == "backup" else 0)}
+            seqs.append(inst.ctrl_seq)
+        seqs = np.array(seqs)
+        cols = {k: out[k][valid] for k in CTRL_FLOATS}
+        cols.update(wt=rec["wt"][valid], seq=seqs, meas_seq=rec["seq"][valid],
+                    flags=out["limited"][valid].astype(int) | (2 if self.role == "backup" else 0))
+        sec = int(now)
+        header = (seqs, sec, int((now - sec) * 1e9)) if self.header else None
+        try:
+            packets = encode_batch(wire.MsgType.CTRL, cols, header=header)
+        except wire.WireError:  # a value beyond float32: nothing of this round is sent
+            for inst in sent:
+                inst.counts["ctrl_invalid"] += 1
+            return
+        for inst, data in zip(sent, packets):
             try:
-                self.sock.sendto(wire.encode(wire.MsgType.CTRL, values, header=self._header(inst.ctrl_seq, now)),
-                                 (addr[0], wire.PORT_TURBINE))
+                self.sock.sendto(data, (newest[inst.wid][1][0], wire.PORT_TURBINE))
                 inst.counts["ctrl_tx"] += 1
             except OSError:
                 inst.counts["ctrl_tx_error"] = inst.counts.get("ctrl_tx_error", 0) + 1
