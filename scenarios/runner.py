@@ -28,6 +28,7 @@ from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, TestbedSwitch, defa
 
 SWITCH_CONNECT_TIMEOUT_S = 30.0
 START_MARGIN_S = 0.5
+SDC_READY_TIMEOUT_S = 120.0
 
 
 class RunError(RuntimeError):
@@ -208,7 +209,8 @@ class Run:
                                              str(self.out / f"sdvisc-capture-{h}.pcap"), "udp"], host=node)
         turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"],
                      "pid": self.net.get(n).pid} for n, h in sorted(hosts.items()) if h["role"] == "turbine"]
-        time.sleep(0.3)  # let the services bind their sockets
+        self._wait_sdcs_ready([(host, sdc_id) for host, sdc_id, _ in sdcs])
+        time.sleep(0.3)  # let the other services bind their sockets
         self.t0 = time.time() + START_MARGIN_S
         plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": self.t0,
                      "model": sc.plant.model, "record": sc.plant.record or sc.turbines_named(),
@@ -217,6 +219,20 @@ class Run:
                      "remote_apply": sc.plant.remote_apply}
         cfg = self._write_json("plant_config.json", plant_cfg)
         self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
+
+    def _wait_sdcs_ready(self, sdcs: list[tuple[str, int]], timeout_s: float = SDC_READY_TIMEOUT_S) -> None:
+        """Wait until every SDC has warmed up (its first run on a machine compiles the Tustin
+        step, some seconds) and says so in ``sdcN_ready``; the plant starts only then."""
+        end = time.time() + timeout_s
+        for host, sdc_id in sdcs:
+            ready = self.out / f"sdc{sdc_id}_ready"
+            while not ready.exists():
+                proc = self.procs[f"{host}.sdc"]
+                if proc.poll() is not None:
+                    raise RunError(f"SDC on {host} exited during start-up; see {self.out / f'{host}.sdc.log'}")
+                if time.time() > end:
+                    raise RunError(f"SDC on {host} not ready after {timeout_s:.0f} s; see {self.out / f'{host}.sdc.log'}")
+                time.sleep(0.05)
 
     # ------------------------------------------------------------------ timeline
     def _to_stdin(self, name: str, obj: dict) -> None:

@@ -290,9 +290,11 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cfg = json.loads(Path(args.config).read_text())
     service = SdcService(cfg)
-    service.bank.warm_up()
+    service.bank.warm_up()  # also loads (or, the first time on a machine, compiles) the Tustin step
     if cfg.get("realtime_priority", True):
         raise_priority()
+    if cfg.get("out_dir"):  # the runner starts the plant only when every SDC is ready
+        (Path(cfg["out_dir"]) / f"sdc{service.sdc_id}_ready").write_text(f"{time.time()}\n")
 
     def stop(*_):
         service.running = False

@@ -170,3 +170,12 @@ def tustin_step(X, C, K, F, M, R, MEM, mask, OUT, LIMITED):
         MEM[:, i] = mem
         OUT[:, i] = out
         LIMITED[i] = limited
+
+
+def precompile() -> None:
+    """Compile (or load from numba's on-disk cache) the step for float64 and float32, so that an
+    SDC started in a run does not spend seconds compiling (``./testbed setup`` calls this)."""
+    from sdc_unit.bank import ControllerBank
+
+    for dtype in ("float64", "float32"):
+        ControllerBank(2, 0.67e-3, dtype=dtype).warm_up(steps=2)
