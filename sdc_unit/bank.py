@@ -118,10 +118,8 @@ class ControllerBank:
         slots = np.asarray(slots, dtype=np.intp)
         if slots.size == 0:
             return {k: np.zeros(0, dtype=bool if k == "limited" else float) for k in OUT_KEYS}, np.zeros(0, dtype=bool)
-        finite = np.isfinite(meas[self.MEAS_KEYS[0]])
-        for k in self.MEAS_KEYS[1:]:
-            finite &= np.isfinite(meas[k])
-        usable = finite & self.started[slots]
+        rows = np.array([meas[k] for k in self.MEAS_KEYS], dtype=float)
+        usable = np.isfinite(rows).all(axis=0) & self.started[slots]
         all_usable = bool(usable.all())
         used = slots if all_usable else slots[usable]
         if not self.initialised[used].all():  # only a fresh slot needs the (per-slot) initialisation
@@ -134,10 +132,9 @@ class ControllerBank:
             out["omega"] = np.ones(len(slots))
             out["limited"] = np.zeros(len(slots), dtype=bool)
             return out, usable
-        return self._step_visc(slots, meas, usable, used, all_usable)
+        return self._step_visc(slots, rows, usable, used, all_usable)
 
-    def _step_visc(self, slots, meas, usable, used, all_usable):
-        rows = np.array([meas[k] for k in self.MEAS_KEYS], dtype=float)
+    def _step_visc(self, slots, rows, usable, used, all_usable):
         full = np.zeros((len(self.MEAS_KEYS), self.capacity))
         full[:, used] = rows if all_usable else rows[:, usable]
         saved = self.visc.active.copy()

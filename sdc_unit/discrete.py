@@ -294,20 +294,9 @@ class DiscreteVisc:
         return self._outputs(ok)
 
     def _outputs(self, valid) -> Outputs:
-        L = self.last
-        return Outputs(
-            v_ref_d=L["v_ref_d"].copy(),
-            v_ref_q=L["v_ref_q"].copy(),
-            i_ref_d=L["i_ref_d"].copy(),
-            i_ref_q=L["i_ref_q"].copy(),
-            delta=L["delta"].copy(),
-            omega=L["omega"].copy(),
-            e_mag=L["e_mag"].copy(),
-            limited=self.last_limited.copy(),
-            valid=np.asarray(valid, dtype=bool).copy(),
-            v_f=L["v_f"].copy(),
-            p_e=L["p_e"].copy(),
-        )
+        rows = np.array([self.last[f] for f in OUT_FIELDS])  # one copy of every output
+        return Outputs(**dict(zip(OUT_FIELDS, rows)), limited=self.last_limited.copy(),
+                       valid=np.array(valid, dtype=bool))
 
     def track(self, meas, index=None) -> None:
         """Warm standby: advance the states of instances ``index`` on ``meas`` without producing output."""
