@@ -23,6 +23,7 @@ from mininet.node import RemoteController
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from sdvisc import cleanup, wire
+from sdvisc.netns import set_link_up
 from topologies import topos
 from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, TestbedSwitch, default_datapath, describe
 
@@ -304,9 +305,8 @@ class Run:
         The time is taken before the command (not after it returns, which is 1–3 ms later), so a
         recovery time measured from it can only be over-, never under-estimated.
 
-        Switch ends live in the root namespace and are set with ``ip link`` directly (a veth whose
-        peer is down has no carrier, so the first end takes the link down at once); host ends go
-        through the host's shell."""
+        Each end is set with one ioctl in its namespace (switch ends: the root namespace); a veth
+        whose peer is down has no carrier, so the first end takes the link down at once."""
         links = self.net.linksBetween(self.net.get(a), self.net.get(b))
         if not links:
             raise RunError(f"no link {a}-{b}")
@@ -317,11 +317,12 @@ class Run:
             self.links_down.add(tuple(sorted((a, b))))
         t_first = None
         for intf in (links[0].intf1, links[0].intf2):
-            t_first = t_first or time.time()
-            if intf.node in self.net.switches:
-                subprocess.run(["ip", "link", "set", "dev", intf.name, state], check=False)
-            else:
-                intf.node.cmd(f"ip link set dev {intf.name} {state}")
+            pid = None if intf.node in self.net.switches else intf.node.pid  # switch ends: root namespace
+            try:
+                t = set_link_up(intf.name, up, pid)
+            except OSError as exc:
+                raise RunError(f"cannot set {intf.name} {state}: {exc}") from exc
+            t_first = t_first or t
         return t_first
 
     def play(self) -> None:

@@ -9,8 +9,11 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import fcntl
 import os
 import socket
+import struct
+import time
 
 CLONE_NEWNET = 0x40000000
 _libc = ctypes.CDLL(None, use_errno=True)
@@ -65,3 +68,24 @@ def raise_priority(priority: int = 10) -> str:
             return "nice:-10"
         except OSError:
             return "default"
+
+
+SIOCGIFFLAGS = 0x8913
+SIOCSIFFLAGS = 0x8914
+IFF_UP = 0x1
+
+
+def set_link_up(ifname: str, up: bool, pid: int | None = None) -> float:
+    """Set interface ``ifname`` (in the namespace of ``pid``, or this one) up or down with one
+    ioctl, as ``ip link set`` does but without starting a process (~2 ms), so a link failure
+    happens at a known instant; returns the wall time just before the change."""
+    ctx = netns_of(pid) if pid is not None else contextlib.nullcontext()
+    with ctx, socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        name = ifname.encode()
+        if len(name) > 15:
+            raise ValueError(f"interface name too long: {ifname!r}")
+        flags = struct.unpack("16sH", fcntl.ioctl(sock, SIOCGIFFLAGS, struct.pack("16sH", name, 0)))[1]
+        flags = flags | IFF_UP if up else flags & ~IFF_UP
+        t = time.time()
+        fcntl.ioctl(sock, SIOCSIFFLAGS, struct.pack("16sH", name, flags))
+    return t
