@@ -1,0 +1,150 @@
+"""What Open vSwitch itself needs on this machine to move a packet stream, without the testbed.
+
+Usage (root):  .venv/bin/python benchmarks/ovs_latency.py [--repeat 20] [--load 0]   (~1 min)
+
+One bridge of the testbed's switch class (the userspace datapath where the kernel has no Open
+vSwitch module), host h1 sending a 1500 packet/s UDP stream (the testbed's rate at Ts = 0.67 ms)
+that the bridge forwards to h2; a raw socket on h3 timestamps the first frame that reaches h3.
+Two measurements, ``--repeat`` times each:
+
+* ``flow_mod_ms``: the stream's flow is changed to output to h3 (``ovs-ofctl mod-flows``, which
+  returns after the barrier, i.e. when the switch has the new flow); time from that return to the
+  first frame at h3. This is the data-plane part of every reroute (DR, port status, failover).
+* ``ff_port_down_ms``: the stream goes through an OpenFlow fast-failover group (bucket 1 watches
+  and uses h2's port, bucket 2 h3's); h2's link is set down (one ioctl, the instant is known);
+  time to the first frame at h3. This is the whole of a fast-failover repair.
+
+``--load K`` adds K more 1500 packet/s streams through the same bridge (between extra hosts), the
+kind of load a farm with K ViSC turbines puts on the switch process.
+Prints one JSON object (p50/p95/max per measurement, the machine, the datapath).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+import numpy as np  # noqa: E402
+from mininet.net import Mininet  # noqa: E402
+
+from sdvisc import cleanup  # noqa: E402
+from sdvisc.netns import set_link_up  # noqa: E402
+from topologies.base import TestbedSwitch, default_datapath  # noqa: E402
+
+SENDER = """
+import socket, sys, time
+dst, rate = sys.argv[1], float(sys.argv[2])
+s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+period, t = 1.0 / rate, time.perf_counter()
+while True:
+    s.sendto(b"x" * 60, (dst, 9999))
+    t += period
+    d = t - time.perf_counter()
+    if d > 0:
+        time.sleep(d)
+"""
+
+RECEIVER = """
+import socket, sys, time
+s = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x0800))
+s.bind((sys.argv[1], 0))
+last = 0.0
+while True:
+    frame = s.recv(2048)
+    now = time.time()
+    if len(frame) >= 38 and frame[23] == 17 and frame[36:38] == (9999).to_bytes(2, "big"):
+        if now - last > 0.05:
+            print(repr(now), flush=True)
+        last = now
+"""
+
+
+def ofctl(*args: str) -> None:
+    subprocess.run(["ovs-ofctl", "-O", "OpenFlow13", *args], check=True, capture_output=True)
+
+
+def first_arrival(receiver, timeout_s: float = 2.0) -> float | None:
+    import select  # noqa: PLC0415
+
+    ready, _, _ = select.select([receiver.stdout], [], [], timeout_s)
+    return float(receiver.stdout.readline()) if ready else None
+
+
+def stats(values: list[float]) -> dict:
+    v = np.array([x for x in values if x is not None])
+    return {"n": len(values), "lost": len(values) - len(v),
+            **({"p50": round(float(np.percentile(v, 50)), 3), "p95": round(float(np.percentile(v, 95)), 3),
+                "max": round(float(v.max()), 3), "min": round(float(v.min()), 3)} if len(v) else {})}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=20)
+    ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
+    args = ap.parse_args()
+    cleanup.clean()
+    net = Mininet(switch=TestbedSwitch, controller=None, autoSetMacs=True, build=False)
+    s1 = net.addSwitch("s1")
+    hosts = [net.addHost(f"h{k}") for k in range(1, 4 + 2 * args.load)]
+    for h in hosts:
+        net.addLink(h, s1)
+    procs = []
+    try:
+        net.build()
+        s1.start([])
+        for h in hosts:
+            h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
+        port = {h.name: s1.ports[s1.connectionsTo(h)[0][0]] for h in hosts}
+        ofctl("add-flow", "s1", "priority=1,arp,actions=FLOOD")
+        for k in range(args.load):  # background streams h(4+2k) -> h(5+2k)
+            a, b = hosts[3 + 2 * k], hosts[4 + 2 * k]
+            ofctl("add-flow", "s1", f"priority=10,in_port={port[a.name]},udp,actions=output:{port[b.name]}")
+            procs.append(a.popen([sys.executable, "-c", SENDER, b.IP(), "1500"]))
+        h1, h2, h3 = hosts[:3]
+        receiver = h3.popen([sys.executable, "-u", "-c", RECEIVER, h3.defaultIntf().name], text=True)
+        procs.append(receiver)
+        procs.append(h1.popen([sys.executable, "-c", SENDER, h2.IP(), "1500"]))
+        time.sleep(0.5)
+        flow = f"in_port={port['h1']},udp"
+        flow_mod, ff = [], []
+        for _ in range(args.repeat):
+            ofctl("add-flow", "s1", f"priority=20,{flow},actions=output:{port['h2']}")
+            time.sleep(0.3)
+            ofctl("mod-flows", "s1", f"{flow},actions=output:{port['h3']}")
+            t_done = time.time()
+            t = first_arrival(receiver)
+            flow_mod.append((t - t_done) * 1e3 if t else None)
+        ofctl("del-flows", "s1", flow)
+        ofctl("add-group", "s1", f"group_id=1,type=ff,bucket=watch_port:{port['h2']},output:{port['h2']},"
+                                 f"bucket=watch_port:{port['h3']},output:{port['h3']}")
+        ofctl("add-flow", "s1", f"priority=20,{flow},actions=group:1")
+        sw_end = s1.connectionsTo(h2)[0][0].name
+        for _ in range(args.repeat):
+            set_link_up(sw_end, True)
+            time.sleep(0.5)
+            first_arrival(receiver, 0.05)  # drain
+            t_down = set_link_up(sw_end, False)
+            t = first_arrival(receiver)
+            ff.append((t - t_down) * 1e3 if t else None)
+        result = {"benchmark": "ovs_latency", "machine": platform.platform(), "cpus": len(__import__("os").sched_getaffinity(0)),
+                  "datapath": default_datapath(), "ovs": subprocess.run(["ovs-vswitchd", "--version"], capture_output=True,
+                                                                         text=True).stdout.splitlines()[0],
+                  "stream_pps": 1500, "extra_streams": args.load, "repeat": args.repeat,
+                  "flow_mod_ms": stats(flow_mod), "ff_port_down_ms": stats(ff)}
+        print(json.dumps(result, indent=1))
+    finally:
+        for p in procs:
+            p.kill()
+        net.stop()
+        cleanup.clean()
+
+
+if __name__ == "__main__":
+    main()
