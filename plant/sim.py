@@ -5,7 +5,7 @@ Time exists only as ``step counter * step_s``; there is no wall clock here.  One
 the whole state (turbines, condenser, grid source, PCC PLL and, for ``hd_visc`` turbines, the ViSC
 law state). The network is algebraic and solved at every stage with one reduced mat-vec of the
 pre-inverted Y (network.py). The slow mechanical terms are held over ``slow_every`` steps
-(docs/plant.md, Integration).
+(docs/plant.md, Integration); the usual case of the right-hand side runs in fastrhs.py.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ import numpy as np
 from plant import turbine as T
 from plant.condenser import NX as SC_NX
 from plant.condenser import Condenser
+from plant.fastrhs import FastRHS
 from plant.network import Network
 from plant.params import OMEGA0, PlantParams
 
@@ -69,6 +70,7 @@ class Plant:
         self._cache = None
         self._etd = None
         self._mode_key = None
+        self._fast = FastRHS(self)
         self.slow_every = max(1, int(slow_every))
         self._slow_keep = False
         self._slow_next = 0
@@ -122,12 +124,48 @@ class Plant:
         return self._mode_val
 
     def _rhs(self, X, xl, want_aux: bool = False):
+        r = self._fast.rhs(X, xl, want_aux)  # usual case, same equations (plant/fastrhs.py)
+        return r if r is not None else self._rhs_general(X, xl, want_aux)
+
+    def _visc(self, S, v, xl, vext):
+        """hd_visc turbines: (converter voltages incl. the law's, law derivatives, law outputs)."""
+        law = _law()
+        meas = law.Measurements(**self._meas_arrays(S, v, self.visc_idx, None))
+        law_out = law.outputs(xl, meas, self.visc_params)
+        dxl = law.derivatives(xl, meas, self.visc_params)
+        off = ~self.net.plugged[self.visc_idx]
+        if off.any():  # a disconnected ViSC is blocked: its law state is frozen too
+            dxl = np.where(off, 0.0, dxl)
+        vext = vext.copy()
+        vext[self.visc_idx] = np.asarray(_get(law_out, "v_ref_d")) + 1j * np.asarray(_get(law_out, "v_ref_q"))
+        return vext, dxl, law_out
+
+    def _tail_rhs(self, tail, vp, vsc, e_grid, e_sc):
+        """Derivatives of the condenser, grid source and PCC PLL (tail: list of floats): (list, I_sc, f_pcc)."""
+        net, g, tp = self.net, self.params.grid, self.params.turbine
+        if net.sc_connected:
+            d, i_sc = self.sc.rhs(tail[:SC_NX], vsc, abs(vp) if self.sc.p.avr_bus == "pcc" else abs(vsc), e_sc)
+        else:
+            d, i_sc = [0.0] * SC_NX, 0.0j
+        if g.h_grid > 0:
+            wg, pm = tail[SC_NX + 1], tail[SC_NX + 2]
+            ig = (e_grid - vp) * net.y_grid
+            pe = (e_grid * ig.conjugate()).real * g.s_base_mva / g.s_grid_mva
+            d += [OMEGA0 * (wg - 1.0), (pm - pe - g.d_grid * (wg - 1.0)) / (2.0 * g.h_grid),
+                  (self.pm0 - (wg - 1.0) / g.r_gov - pm) / g.t_gov]
+        else:
+            d += (0.0, 0.0, 0.0)
+        xpp = tail[SC_NX + 4]
+        ev = (vp * cmath.exp(-1j * tail[SC_NX + 3])).imag / max(abs(vp), 0.1)
+        d += (OMEGA0 * (tp.kp_pll * ev + xpp), tp.ki_pll * ev)
+        return d, i_sc, 1.0 + tp.kp_pll * ev + xpp
+
+    def _rhs_general(self, X, xl, want_aux: bool = False):
         n, net, tb, g = self.n, self.net, self.tb, self.params.grid
         S = X[: self.o_sc].reshape(T.NS, n)
-        tail = X[self.o_sc:].tolist()  # condenser, grid source, PCC PLL: Python scalars
+        tail = X.real[self.o_sc:].tolist()  # condenser, grid source, PCC PLL: Python floats
         xsc = tail[:SC_NX]
-        thg, wg, pm = tail[SC_NX].real, tail[SC_NX + 1].real, tail[SC_NX + 2].real
-        thp, xpp = tail[SC_NX + 3].real, tail[SC_NX + 4].real
+        thg = tail[SC_NX]
         e_grid = g.e_grid * cmath.exp(1j * thg) if thg != 0.0 else complex(g.e_grid)
         e_sc = self.sc.e_net(xsc) if net.sc_connected else 0.0j
         vl = self._v_pcc_last
@@ -146,41 +184,17 @@ class Plant:
             tp = self.params.turbine
             ih = tb.i_hold
             vext = np.where(tb.mode == T.REMOTE, v + (tp.rf + 1j * tp.lf) * ih + tp.kpc * (ih - S[T.IF]), vext)
-        dxl = None
-        law_out = None
-        active = net.plugged
+        dxl = law_out = None
         if self.visc_idx.size:
-            law = _law()
-            meas = law.Measurements(**self._meas_arrays(S, v, self.visc_idx, None))
-            law_out = law.outputs(xl, meas, self.visc_params)
-            dxl = law.derivatives(xl, meas, self.visc_params)
-            off = ~active[self.visc_idx]
-            if off.any():  # a disconnected ViSC is blocked: its law state is frozen too
-                dxl = np.where(off, 0.0, dxl)
-            vext = vext.copy()
-            vext[self.visc_idx] = np.asarray(_get(law_out, "v_ref_d")) + 1j * np.asarray(_get(law_out, "v_ref_q"))
+            vext, dxl, law_out = self._visc(S, v, xl, vext)
         dX = np.empty_like(X)
         dS, aux = tb.rhs(S, v, vext, ext, any_ext, out=dX[: self.o_sc].reshape(T.NS, n))
         if not net.all_plugged:
-            dS[:, ~active] = 0.0
-        if net.sc_connected:
-            vreg = abs(vp) if self.sc.p.avr_bus == "pcc" else abs(vsc)
-            dsc, i_sc = self.sc.rhs(xsc, vsc, vreg)
-        else:
-            dsc, i_sc = [0.0] * SC_NX, 0.0j
-        if g.h_grid > 0:
-            ig = (e_grid - vp) * net.y_grid
-            pe = (e_grid * ig.conjugate()).real * g.s_base_mva / g.s_grid_mva
-            dg = [OMEGA0 * (wg - 1.0), (pm - pe - g.d_grid * (wg - 1.0)) / (2.0 * g.h_grid),
-                  (self.pm0 - (wg - 1.0) / g.r_gov - pm) / g.t_gov]
-        else:
-            dg = [0.0, 0.0, 0.0]
-        tp = self.params.turbine
-        ev = (vp * cmath.exp(-1j * thp)).imag / max(abs(vp), 0.1)
-        dX[self.o_sc:] = dsc + dg + [OMEGA0 * (tp.kp_pll * ev + xpp), tp.ki_pll * ev]
+            dS[:, ~net.plugged] = 0.0
+        dX[self.o_sc:], i_sc, f_pcc = self._tail_rhs(tail, vp, vsc, e_grid, e_sc)
         if want_aux:
             aux.update(Vr=Vr, v=v, i=i_t, i_sc=i_sc, e_grid=e_grid, e_sc=e_sc, i_load=i_load, law_out=law_out,
-                       v_pcc=vp, v_sc=vsc, f_pcc=1.0 + tp.kp_pll * ev + xpp)
+                       v_pcc=vp, v_sc=vsc, f_pcc=f_pcc)
             return dX, dxl, aux
         return dX, dxl, None
 
@@ -219,10 +233,20 @@ class Plant:
         self._check_fallback()
         self.net.ensure()
         h = self.step_s / self.substeps
-        self._eval_cached()  # also holds the aerodynamics of this step (TurbineBank.hold_slow)
+        k1, l1, aux = self._eval_cached()  # also holds the aerodynamics of this step (TurbineBank.hold_slow)
         X, xl = self.X, self.xl
         if self.method == "etd2":
             E, phi1, phi2 = self._etd_coeffs(h)
+            if self.substeps == 1 and xl is None:  # the usual case: the loop below, unrolled
+                self._v_pcc_last = aux["v_pcc"]
+                a = phi1 * k1
+                a += X
+                k2 = self._rhs(a, None)[0]
+                k2 -= E * k1
+                k2 *= phi2
+                a += k2
+                self._advance(a, None)
+                return
         for s in range(self.substeps):
             if s == 0:
                 k1, l1, aux = self._eval_cached()
@@ -255,12 +279,15 @@ class Plant:
                     inc = _tree(_tree(l1, l4, lambda a, b: a + b), _tree(l2, l3, lambda a, b: a + b),
                                 lambda a, b: a + 2.0 * b)
                     xl = _tree(xl, inc, lambda a, b: a + (h / 6.0) * b)
+        self._advance(X, xl)
+
+    def _advance(self, X, xl) -> None:
+        """Store the new state, count the step and evaluate it (the next step's first stage)."""
         self.X, self.xl = X, xl
         self.k += 1
         self._cache = None
         self._slow_keep = True  # only the step itself may keep the held slow terms
-        self._eval_cached()
-        self._v_pcc_last = self._cache[2]["v_pcc"]
+        self._v_pcc_last = self._eval_cached()[2]["v_pcc"]
 
     def _etd_coeffs(self, h):
         """Exponential (ETD2RK, Cox-Matthews) coefficients for the stiff current-control pole.
@@ -269,7 +296,8 @@ class Plant:
         current loop (grid-following, and remote with remote_apply = "i_ref")
         (the closed current loop is di/dt = -c (i - i*) + ...), c = 0 elsewhere (-> Heun).
         """
-        key = (h, self.tb.mode.tobytes(), self.net.plugged.tobytes(), self.params.turbine.remote_apply)
+        self._mode_info()  # refreshes self._mode_key; every change of `plugged` refactorises the network
+        key = (h, self._mode_key, self.net.n_factorizations, self.params.turbine.remote_apply)
         if self._etd is not None and self._etd[0] == key:
             return self._etd[1]
         tp = self.params.turbine
@@ -305,12 +333,13 @@ class Plant:
         _, _, aux = self._eval_cached()
         m = aux.get("meas")
         if m is None:
-            S = self.X[: self.o_sc].reshape(T.NS, self.n)
             v, i = aux["v"], aux["i"]
-            s = v * i.conj()
-            om = aux["ev"] * self.params.turbine.kp_pll
-            om += S[T.XP].real
-            om += 1.0
+            s, om = aux.get("s"), aux.get("om")  # the fast path (fastrhs.py) provides both
+            if om is None:
+                s = v * i.conj()
+                om = aux["ev"] * self.params.turbine.kp_pll
+                om += self.X[T.XP * self.n:(T.XP + 1) * self.n].real
+                om += 1.0
             m = aux["meas"] = {"v_d": v.real, "v_q": v.imag, "i_d": i.real, "i_q": i.imag, "p": s.real,
                                "q": s.imag, "v_dc": aux["vdc"], "omega_meas": om}
         return dict(m)
@@ -382,7 +411,8 @@ class Plant:
         late = rem[(self.k - tb.last_rx_step[rem]) * self.step_s >= self.params.turbine.remote_loss_fallback_s]
         if not tb.fallback_enabled:
             late = late[:0]
-        late = np.setdiff1d(late, over)
+        if late.size and over.size:  # (late and over are sorted and unique already)
+            late = np.setdiff1d(late, over)
         if late.size or over.size:
             _, _, aux = self._eval_cached()
             both = np.concatenate([late, over])

@@ -124,8 +124,8 @@ class TurbineBank:
         dxb = np.where(aw_b, 0.0, p.ki_beta * ew)
         inv2hw = 1.0 / (2.0 * p.h_rotor * np.maximum(wr, 0.1))
         # grid-following: no clamp of V_d and no current limit while V_d >= vd_ok
-        vd_ok = max(0.3, float(np.max(np.abs(sref))) / p.i_max_gfl)
-        return {"paero": pa, "pav": pav, "pav_min": float(np.min(pav)), "sref": sref, "vd_ok": vd_ok,
+        vd_ok = max(0.3, float(_max(np.abs(sref))) / p.i_max_gfl)
+        return {"paero": pa, "pav": pav, "pav_min": float(_min(pav)), "sref": sref, "vd_ok": vd_ok,
                 "inv2hw": inv2hw, "db": db, "dxb": dxb, "any_batt": bool(self.battery.any())}
 
     # ------------------------------------------------------------------ aero
