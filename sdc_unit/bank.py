@@ -15,6 +15,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from sdc_unit.law import MEAS_FIELDS
+
 VISC_METHODS = ("tustin", "trapezoid_cumulative", "euler")
 METHODS = VISC_METHODS + ("hold",)
 OUT_KEYS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "limited")
@@ -30,7 +32,7 @@ def params_from_mask(params: dict) -> dict:
 class ControllerBank:
     """``capacity`` controller slots stepped in one vectorised call."""
 
-    MEAS_KEYS = ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
+    MEAS_KEYS = MEAS_FIELDS  # ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
 
     def __init__(self, capacity: int, step_s: float, method: str = "tustin", dtype: str = "float64",
                  r_f: float = 0.003, x_f: float = 0.08) -> None:
@@ -142,7 +144,7 @@ class ControllerBank:
         stepping[used] = True
         self.visc.active &= stepping
         try:
-            result = self.visc.step(SimpleNamespace(**dict(zip(self.MEAS_KEYS, full))))
+            result = self.visc.step(full)  # rows in MEAS_KEYS order (= law.MEAS_FIELDS)
         finally:
             self.visc.active[:] = saved
         valid = usable & result.valid[slots]

@@ -111,6 +111,7 @@ class DiscreteVisc:
             raise ValueError(f"engine must be one of {ENGINES}")
         self.engine = engine
         self._jit = self._jit_tables() if method == "tustin" and engine in ("auto", "jit") else None
+        self._jit_stale = True
         if engine == "jit" and self._jit is None:
             raise ValueError("engine 'jit' needs method 'tustin', numba and scalar switches")
 
@@ -127,12 +128,19 @@ class DiscreteVisc:
 
     def _meas(self, meas):
         """Sanitised measurements in dtype and the per-instance finiteness mask."""
-        fields = [getattr(meas, f) for f in MEAS_FIELDS]
-        if all(type(v) is np.ndarray and v.shape == (self.n,) for v in fields):  # one stacked pass
-            raw = np.array(fields, dtype=float)
+        if isinstance(meas, np.ndarray):  # a (len(MEAS_FIELDS), n) matrix, rows in MEAS_FIELDS order
+            raw = np.asarray(meas, dtype=float).reshape(len(MEAS_FIELDS), self.n)
+        else:
+            fields = [getattr(meas, f) for f in MEAS_FIELDS]
+            raw = None
+            if all(type(v) is np.ndarray and v.shape == (self.n,) for v in fields):
+                raw = np.array(fields, dtype=float)
+        if raw is not None:  # one stacked pass
             finite = np.isfinite(raw).all(axis=0)
             clean = np.where(finite, raw, 0.0).astype(self.dtype)
-            return dict(zip(MEAS_FIELDS, clean)), finite
+            rows = _Rows(zip(MEAS_FIELDS, clean))
+            rows.matrix = clean
+            return rows, finite
         raw = {f: np.broadcast_to(np.asarray(v, dtype=float), (self.n,)) for f, v in zip(MEAS_FIELDS, fields)}
         finite = np.ones(self.n, dtype=bool)
         for v in raw.values():
@@ -197,25 +205,34 @@ class DiscreteVisc:
                       lpf_d_dc=self.lpf_d.dc, lpf_q_dc=self.lpf_q.dc)
         return (np.array([consts[k] for k in jit.CONST_NAMES], dtype=dt), np.array([bool(f) for f in flags], dtype=np.int64))
 
-    def _advance_jit(self, m: dict, mask: np.ndarray) -> np.ndarray:
+    def _stack_for_jit(self) -> None:
+        """Matrices of the compiled step; the dicts' entries become their rows (views), so the step
+        updates states, memory and outputs in place. Called again after anything outside the step
+        replaced those arrays (``_jit_stale``)."""
         dt, blocks = self.dtype, self.blocks
-        consts, flags = self._jit
-        x = np.array([blocks[b].s[s] for b, s in jit.STATE_ROWS], dtype=dt)
-        coef = np.array([getattr(blocks[b], c) for b, c in jit.COEF_ROWS], dtype=dt)
-        meas = np.array([m[k] for k in jit.MEAS_ROWS], dtype=dt)
-        refs = np.array([self.rp[k] for k in jit.REF_ROWS]).astype(dt)
-        mem = np.array([self.mem[k] for k in jit.MEM_ROWS], dtype=dt)
-        out = np.zeros((len(jit.OUT_ROWS), self.n), dtype=dt)
-        limited = np.zeros(self.n, dtype=bool)
-        jit.tustin_step(x, coef, consts, flags, meas, refs, mem, mask, out, limited)
-        for (b, s), row in zip(jit.STATE_ROWS, x):
+        self._x = np.array([blocks[b].s[s] for b, s in jit.STATE_ROWS], dtype=dt)
+        for (b, s), row in zip(jit.STATE_ROWS, self._x):
             blocks[b].s[s] = row
-        self.mem.update(zip(jit.MEM_ROWS, mem))
-        outs = out.astype(float)
-        ok = mask & np.isfinite(outs).all(axis=0)
-        last = np.where(ok, outs, np.array([self.last[f] for f in jit.OUT_ROWS], dtype=float))
-        self.last.update(zip(jit.OUT_ROWS, last))
-        self.last_limited = np.where(ok, limited, self.last_limited)
+        self._coef = np.array([getattr(blocks[b], c) for b, c in jit.COEF_ROWS], dtype=dt)
+        self._refs = np.array([self.rp[k] for k in jit.REF_ROWS]).astype(dt)
+        self._mem = np.array([self.mem[k] for k in jit.MEM_ROWS], dtype=dt)
+        self.mem.update(zip(jit.MEM_ROWS, self._mem))
+        self._last = np.array([self.last[f] for f in jit.OUT_ROWS], dtype=float)
+        self.last.update(zip(jit.OUT_ROWS, self._last))
+        self._jit_stale = False
+
+    def _advance_jit(self, m, mask: np.ndarray) -> np.ndarray:
+        """``m``: the measurements as a dict of rows or a (8, n) matrix in the working precision."""
+        if self._jit_stale:
+            self._stack_for_jit()
+        consts, flags = self._jit
+        meas = getattr(m, "matrix", None)  # jit.MEAS_ROWS is MEAS_FIELDS' order
+        if meas is None:
+            meas = np.array([m[k] for k in jit.MEAS_ROWS], dtype=self.dtype)
+        limited = self.last_limited.copy()
+        ok = np.empty(self.n, dtype=bool)
+        jit.tustin_step(self._x, self._coef, consts, flags, meas, self._refs, self._mem, mask, self._last, limited, ok)
+        self.last_limited = limited
         return ok
 
     def _commit_pass(self, mask: np.ndarray, new_mem: dict, out: dict, limited: np.ndarray) -> np.ndarray:
@@ -281,7 +298,8 @@ class DiscreteVisc:
         return new_mem, out, limited
 
     def step(self, meas) -> Outputs:
-        """One sample for all active instances with finite measurements.
+        """One sample for all active instances with finite measurements (``meas``: an object with
+        the MEAS_FIELDS as attributes, or a (len(MEAS_FIELDS), n) matrix in that row order).
 
         Returns :class:`Outputs`; ``valid`` is False for inactive instances and for instances with
         non-finite measurements (those are not stepped; their fields hold the last valid output,
@@ -311,6 +329,7 @@ class DiscreteVisc:
         v_f = v, friction at rest, the AVR so that E is reproduced, the current PIs so that the
         first v_ref equals the present converter voltage v + (r_f + j l_f) i. Activates them.
         """
+        self._jit_stale = True  # states/parameters replaced outside the compiled step
         m, finite = self._meas(meas)
         mask = self._mask(index) & finite
         p, c = self.p, self._c
@@ -370,6 +389,7 @@ class DiscreteVisc:
         the AVR's last error is re-expressed with the new references so the proportional part does
         not jump. supp: the AVR integrator absorbs the change of the applied V_F.
         """
+        self._jit_stale = True  # states/parameters replaced outside the compiled step
         bad = set(changes) - set(RUNTIME_PARAMS)
         if bad:
             raise KeyError(f"not run-time parameters: {sorted(bad)}")
@@ -413,6 +433,7 @@ class DiscreteVisc:
 
     def restore(self, index: int, state: dict[str, float]) -> None:
         """Load a :meth:`snapshot` into instance ``index`` (e.g. a backup SDC taking over)."""
+        self._jit_stale = True  # states/parameters replaced outside the compiled step
         i = int(index)
         mask = self._mask(i)
         for k in self.rp:
@@ -426,6 +447,12 @@ class DiscreteVisc:
             self.last[k][i] = state[f"last.{k}"]
         self.last_limited[i] = bool(state["last.limited"])
         self.active[i] = bool(state["active"])
+
+
+class _Rows(dict):
+    """Measurement rows by name, with the stacked matrix they are views of (``matrix``)."""
+
+    matrix: np.ndarray | None = None
 
 
 class _DtypeParams:

@@ -14,8 +14,9 @@ limited is evaluated again with the predicted state (for the others the second p
 the first exactly). Only turbines in ``mask`` are evaluated and committed.
 
 The block objects stay the owners of the states and coefficients (snapshot, restore, bumpless
-re-parameterisation work on them); ``DiscreteVisc`` stacks them into the matrices below around
-each call. A unit test holds this kernel to the generic block-by-block pass (same trajectory to
+re-parameterisation work on them); ``DiscreteVisc`` stacks them into the matrices below once and
+makes the blocks' state entries rows (views) of them, so the compiled step updates them in place;
+whatever changes states or parameters outside the step marks the matrices for re-stacking. A unit test holds this kernel to the generic block-by-block pass (same trajectory to
 rounding, float64 and float32).
 """
 
@@ -152,14 +153,16 @@ def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
 
 
 @njit(cache=True)
-def tustin_step(X, C, K, F, M, R, MEM, mask, OUT, LIMITED):
-    """Advance every turbine i with mask[i]: X and MEM updated in place, OUT[:, i] and LIMITED[i]
-    written. Turbines outside the mask are left untouched (their OUT columns are not written)."""
+def tustin_step(X, C, K, F, M, R, MEM, mask, LAST, LIMITED, OK):
+    """Advance every turbine i with mask[i]: states X and memory MEM in place. Where the outputs
+    are finite, they are written to LAST[:, i] (float64) and LIMITED[i], and OK[i] is set; a
+    turbine outside the mask is not touched (OK[i] = False)."""
     n = X.shape[1]
     new = np.empty(X.shape[0], dtype=X.dtype)
     mem = np.empty(MEM.shape[0], dtype=X.dtype)
-    out = np.empty(OUT.shape[0], dtype=X.dtype)
+    out = np.empty(LAST.shape[0], dtype=X.dtype)
     for i in range(n):
+        OK[i] = False
         if not mask[i]:
             continue
         lim_last = MEM[0, i] > 0
@@ -168,8 +171,15 @@ def tustin_step(X, C, K, F, M, R, MEM, mask, OUT, LIMITED):
             limited = _evaluate(X, C, K, F, M, R, i, limited, mem[1], mem[2], new, mem, out)
         X[:, i] = new
         MEM[:, i] = mem
-        OUT[:, i] = out
-        LIMITED[i] = limited
+        finite = True
+        for j in range(out.shape[0]):
+            if not np.isfinite(out[j]):
+                finite = False
+        if finite:
+            for j in range(out.shape[0]):
+                LAST[j, i] = out[j]
+            LIMITED[i] = limited
+            OK[i] = True
 
 
 def precompile() -> None:

@@ -13,6 +13,8 @@ the field.
 
 from __future__ import annotations
 
+import math
+import struct
 from collections.abc import Mapping, Sequence
 from functools import cache
 
@@ -34,6 +36,9 @@ from sdvisc.wire import (
 HEADER_FIELDS = ("hdr_seq", "hdr_sec", "hdr_nsec")
 """Record fields of the VILLASnode header words (unsigned 32-bit)."""
 
+SMALL_BATCH = 8
+"""Up to this many rows, :func:`encode_batch` packs row by row with ``struct`` (fewer calls)."""
+
 
 @cache
 def record_dtype(mtype: MsgType, header: bool) -> np.dtype:
@@ -47,6 +52,11 @@ def record_dtype(mtype: MsgType, header: bool) -> np.dtype:
 def _float_columns(mtype: MsgType, header: bool) -> np.ndarray:
     first = HEADER_WORDS if header else 0
     return np.array([first + i for i, f in enumerate(LAYOUTS[mtype]) if f.kind == "f32"], dtype=np.intp)
+
+
+@cache
+def _enum_fields(mtype: MsgType) -> tuple:
+    return tuple((f.name, np.array([int(m) for m in f.enum])) for f in LAYOUTS[mtype][1:] if f.enum is not None)
 
 
 @cache
@@ -65,8 +75,9 @@ def decode_batch(datagrams: Sequence[bytes], mtype: MsgType, *, header: bool,
                  stats: DecodeStats | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Decode ``datagrams`` that should all be ``mtype``.
 
-    Returns (records, index): the accepted datagrams as a record array (native-endian copy) and
-    their positions in ``datagrams``. Rejected ones are counted in ``stats`` by reason.
+    Returns (records, index): the accepted datagrams as a record array (``record_dtype``, big-endian;
+    read-only when every datagram was accepted) and their positions in ``datagrams``. Rejected
+    ones are counted in ``stats`` by reason.
     """
     dtype = record_dtype(mtype, header)
     size = dtype.itemsize
@@ -79,24 +90,27 @@ def decode_batch(datagrams: Sequence[bytes], mtype: MsgType, *, header: bool,
     if stats is not None:
         stats.length += len(datagrams) - len(sized)
     if not sized:
-        return np.zeros(0, dtype=dtype.newbyteorder("=")), np.zeros(0, dtype=np.intp)
+        return np.zeros(0, dtype=dtype), np.zeros(0, dtype=np.intp)
     words = np.frombuffer(joined, dtype=">f4").reshape(len(sized), size // WORD_BYTES)
     records = np.frombuffer(joined, dtype=dtype)
     type_ok = records["msg_type"] == int(mtype)
     finite = np.isfinite(words[:, _float_columns(mtype, header)]).all(axis=1)
     ok = type_ok & finite
-    enum_ok = np.ones(len(sized), dtype=bool)
-    for f in LAYOUTS[mtype][1:]:
-        if f.enum is not None:
-            enum_ok &= np.isin(records[f.name], [int(m) for m in f.enum])
+    enum_ok = True
+    for name, codes in _enum_fields(mtype):
+        enum_ok = enum_ok & np.isin(records[name], codes)
     ok &= enum_ok
+    if ok.all():  # the usual case: a read-only big-endian view of the received bytes, no copy
+        if stats is not None:
+            stats.ok += len(sized)
+        return records, np.asarray(sized, dtype=np.intp)
     if stats is not None:
         stats.type += int(np.count_nonzero(~type_ok))
         stats.nonfinite += int(np.count_nonzero(type_ok & ~finite))
         stats.range += int(np.count_nonzero(type_ok & finite & ~enum_ok))
         stats.ok += int(np.count_nonzero(ok))
     index = np.asarray(sized, dtype=np.intp)[ok]
-    return records[ok].astype(dtype.newbyteorder("=")), index
+    return records[ok], index
 
 
 @cache
@@ -120,6 +134,8 @@ def encode_batch(mtype: MsgType, columns: Mapping[str, np.ndarray | int | float]
         raise WireError("field", f"{mtype.name}: missing {sorted(names - set(columns))}, "
                                  f"unexpected {sorted(set(columns) - names)}")
     rows = max((np.size(v) for v in columns.values()), default=0)
+    if rows <= SMALL_BATCH:
+        return _encode_rows(mtype, columns, header, rows)
     words = np.empty((rows, record_dtype(mtype, header is not None).itemsize // WORD_BYTES), dtype=">u4")
     try:  # one call when every float column is an array of the full length
         f = np.array([columns[name] for _, name in floats], dtype=float).T
@@ -157,3 +173,32 @@ def encode_batch(mtype: MsgType, columns: Mapping[str, np.ndarray | int | float]
     size = words.shape[1] * WORD_BYTES
     buf = words.tobytes()
     return [buf[k:k + size] for k in range(0, rows * size, size)]
+
+
+@cache
+def _struct(mtype: MsgType, header: bool) -> struct.Struct:
+    return struct.Struct(">" + ("III" if header else "") + "".join("i" if f.kind == "i32" else "f"
+                                                                    for f in LAYOUTS[mtype]))
+
+
+def _encode_rows(mtype: MsgType, columns: Mapping, header: tuple | None, rows: int) -> list[bytes]:
+    """encode_batch for a few rows: one ``struct.pack`` per row, the same checks and errors."""
+    layout = LAYOUTS[mtype][1:]
+    packer = _struct(mtype, header is not None)
+    cols = [np.broadcast_to(columns[f.name], (rows,)).tolist() for f in layout]
+    heads = [np.broadcast_to(h, (rows,)).tolist() for h in header] if header is not None else []
+    float_at = [j for j, f in enumerate(layout) if f.kind == "f32"]
+    out = []
+    for r in range(rows):
+        values = [c[r] for c in cols]
+        if not math.isfinite(sum(values[j] for j in float_at)):
+            j = next(j for j in float_at if not math.isfinite(values[j]))
+            raise WireError("nonfinite", f"{mtype.name}.{layout[j].name} = {values[j]!r} (row {r})")
+        prefix = [h[r] for h in heads]
+        if any(not 0 <= v <= UINT32_MAX for v in prefix):
+            raise WireError("range", f"header {prefix} (row {r}) is not unsigned 32-bit")
+        try:
+            out.append(packer.pack(*prefix, int(mtype), *values))
+        except (struct.error, OverflowError) as exc:
+            raise WireError("range", f"{mtype.name} row {r}: {exc}") from None
+    return out

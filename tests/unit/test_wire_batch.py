@@ -21,11 +21,12 @@ def _ctrl_columns(rng, n):
     return cols
 
 
+@pytest.mark.parametrize("rows", [3, 9])  # the struct path (small batches) and the numpy path
 @pytest.mark.parametrize("header", [True, False])
-def test_encode_batch_gives_the_bytes_of_encode(header):
+def test_encode_batch_gives_the_bytes_of_encode(header, rows):
     rng = np.random.default_rng(3)
-    cols = _ctrl_columns(rng, 9)
-    hdr = (np.arange(9) + 1, 1_700_000_000, np.arange(9) * 1000) if header else None
+    cols = _ctrl_columns(rng, rows)
+    hdr = (np.arange(rows) + 1, 1_700_000_000, np.arange(rows) * 1000) if header else None
     got = encode_batch(wire.MsgType.CTRL, cols, header=hdr)
     for j, data in enumerate(got):
         values = {k: (int(v[j]) if k in ("wt", "seq", "meas_seq", "flags") else float(v[j])) for k, v in cols.items()}
@@ -33,29 +34,30 @@ def test_encode_batch_gives_the_bytes_of_encode(header):
         assert data == wire.encode(wire.MsgType.CTRL, values, header=h)
 
 
-def test_encode_batch_refuses_nonfinite_out_of_range_and_missing_fields():
+@pytest.mark.parametrize("rows", [4, 12])
+def test_encode_batch_refuses_nonfinite_out_of_range_and_missing_fields(rows):
     rng = np.random.default_rng(4)
-    cols = _ctrl_columns(rng, 4)
+    cols = _ctrl_columns(rng, rows)
     cols["delta"][2] = math.nan
     with pytest.raises(wire.WireError) as err:
         encode_batch(wire.MsgType.CTRL, cols)
     assert err.value.reason == "nonfinite" and "delta" in str(err.value) and "row 2" in str(err.value)
-    cols = _ctrl_columns(rng, 4)
+    cols = _ctrl_columns(rng, rows)
     cols["omega"][1] = 1e39
     with pytest.raises(wire.WireError) as err:
         encode_batch(wire.MsgType.CTRL, cols)
     assert err.value.reason == "range"
-    cols = _ctrl_columns(rng, 4)
+    cols = _ctrl_columns(rng, rows)
     cols["seq"][0] = 2**31
     with pytest.raises(wire.WireError):
         encode_batch(wire.MsgType.CTRL, cols)
-    cols = _ctrl_columns(rng, 4)
+    cols = _ctrl_columns(rng, rows)
     del cols["flags"]
     with pytest.raises(wire.WireError) as err:
         encode_batch(wire.MsgType.CTRL, cols)
     assert err.value.reason == "field"
     with pytest.raises(wire.WireError):
-        encode_batch(wire.MsgType.CTRL, _ctrl_columns(rng, 2), header=(-1, 0, 0))
+        encode_batch(wire.MsgType.CTRL, _ctrl_columns(rng, rows), header=(-1, 0, 0))
 
 
 def _meas(j, seq):
