@@ -181,12 +181,22 @@ def _struct(mtype: MsgType, header: bool) -> struct.Struct:
                                                                     for f in LAYOUTS[mtype]))
 
 
+def _as_list(value, rows: int) -> list:
+    if isinstance(value, np.ndarray) and value.ndim == 1:
+        if len(value) != rows:
+            raise WireError("field", f"column of {len(value)} values for {rows} rows")
+        return value.tolist()
+    if np.ndim(value) == 0:
+        return [value.item() if isinstance(value, np.generic) else value] * rows
+    return np.broadcast_to(value, (rows,)).tolist()
+
+
 def _encode_rows(mtype: MsgType, columns: Mapping, header: tuple | None, rows: int) -> list[bytes]:
     """encode_batch for a few rows: one ``struct.pack`` per row, the same checks and errors."""
     layout = LAYOUTS[mtype][1:]
     packer = _struct(mtype, header is not None)
-    cols = [np.broadcast_to(columns[f.name], (rows,)).tolist() for f in layout]
-    heads = [np.broadcast_to(h, (rows,)).tolist() for h in header] if header is not None else []
+    cols = [_as_list(columns[f.name], rows) for f in layout]
+    heads = [_as_list(h, rows) for h in header] if header is not None else []
     float_at = [j for j, f in enumerate(layout) if f.kind == "f32"]
     out = []
     for r in range(rows):
