@@ -24,6 +24,7 @@ from sdn_app.config import load_config
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdn_app.redundancy import RoleState
+from sdvisc.jsonlines import write_json_atomic
 
 CONFIG_ENV = "SDVISC_SDN_CONFIG"
 ROLE_ENV = "SDVISC_SDN_ROLE"  # master | slave | equal (default: equal, a single controller)
@@ -99,9 +100,7 @@ class SdviscApp(app_manager.OSKenApp):
                  "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
                  "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
                  "t_wall": time.time()}
-        tmp = self.state_dir / f"{self.prefix}_state.json.tmp"
-        tmp.write_text(json.dumps(state, indent=1, sort_keys=True))
-        tmp.replace(self.state_dir / f"{self.prefix}_state.json")
+        write_json_atomic(self.state_dir / f"{self.prefix}_state.json", state)
 
     def _peer(self, now: float) -> None:
         """Peer heartbeat: the master announces itself; a slave takes over when it goes silent."""
@@ -157,6 +156,9 @@ class SdviscApp(app_manager.OSKenApp):
         try:
             self._flush_events()
             self._publish()
+            if self.state_dir:  # a write interrupted by the stop signal may have left its temporary file
+                for stray in self.state_dir.glob(f"{self.prefix}_state.json.{os.getpid()}.*.tmp"):
+                    stray.unlink(missing_ok=True)
             if self._events_file:
                 self._events_file.close()
                 self._events_file = None

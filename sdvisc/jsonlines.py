@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import os
 
@@ -27,3 +28,25 @@ class JsonLineReader:
         self._buf += chunk
         *lines, self._buf = self._buf.split(b"\n")
         return [json.loads(line) for line in lines if line.strip()]
+
+
+_write_count = itertools.count(1)  # next() is atomic: threads never share a temporary name
+
+
+def write_json_atomic(path, obj) -> None:
+    """Replace ``path`` with ``obj`` as JSON so that a reader never sees a partial file.
+
+    The text goes to a temporary file of its own (process id and a counter in the name) in one
+    ``os.write``, then ``os.replace`` moves it into place. A writer interrupted at any point (e.g. by
+    the SIGTERM that stops a run) cannot leave bytes in a file another write has since renamed:
+    a shared temporary name and a buffered file object could (that gave an ``sdn_state.json`` with
+    trailing garbage)."""
+    path = os.fspath(path)
+    tmp = f"{path}.{os.getpid()}.{next(_write_count)}.tmp"
+    data = json.dumps(obj, indent=1, sort_keys=True).encode()
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
+    try:
+        os.write(fd, data)
+    finally:
+        os.close(fd)
+    os.replace(tmp, path)

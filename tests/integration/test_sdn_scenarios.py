@@ -90,7 +90,7 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
     # a copy of the DR scenario without its timeline fault: the failure comes from the CLI
     scenario = tmp_path / "cli.yaml"
     scenario.write_text((SC / "link_failure_dr.yaml").read_text().replace(
-        "  - {t: 2.0, do: link_down, a: s1, b: s3}\n", "").replace("duration_s: 4.0", "duration_s: 7.0"))
+        "  - {t: 2.0, do: link_down, a: s1, b: s3}\n", "").replace("duration_s: 4.0", "duration_s: 10.0"))
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "sdvisc.cli", "run", str(scenario), "--out", str(out), "--cli",
                              "--quiet"], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
@@ -119,16 +119,25 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
              "/UDP(sport=50020, dport=50010)/Raw(b'x' * 57)] * 20, iface='wt1_2-eth0', verbose=0)")
     proc.stdin.write(f'wt1_2 {sys.executable} -c "{spoof}"\n')
     proc.stdin.flush()
+    # while a host command runs, Mininet's CLI forwards typed input to it: type nothing until it ended
+    deadline = time.time() + 60
+    while time.time() < deadline and subprocess.run(["pgrep", "-f", "iface='wt1_2-eth0'"],
+                                                    capture_output=True).returncode != 0:
+        time.sleep(0.05)  # started
+    while time.time() < deadline and subprocess.run(["pgrep", "-f", "iface='wt1_2-eth0'"],
+                                                    capture_output=True).returncode == 0:
+        time.sleep(0.05)  # finished
+    time.sleep(0.2)
     wait_t(5.5)
     proc.stdin.write("status\ntables wt1_1\npaths\n")
     proc.stdin.flush()
-    wait_t(6.9)
+    wait_t(9.9)
     time.sleep(0.5)
     text, _ = proc.communicate("exit\n", timeout=60)
     assert proc.returncode == 0, text
-    assert "link s1-s3 down" in text
-    assert "wt1_1" in text and "1/1" in text  # tables: T2 1/1 and T3 1/1 again after the reroute
-    assert "down links: [['s1', 's3']]" in text
+    assert "link s1-s3 down" in text, text
+    assert "wt1_1" in text and "1/1" in text, text  # tables: T2 1/1 and T3 1/1 again after the reroute
+    assert "down links: [['s1', 's3']]" in text, text
     s = json.loads((out / "summary.json").read_text())
     assert s["sdn_counters"].get("drop_no_flow:10.0.1.1->10.0.0.21", 0) >= 20, text  # the spoofed datagrams
     assert s["wire_rejected"]["sdc1"]["rejected"] == 0  # none reached the SDC
