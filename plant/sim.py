@@ -5,7 +5,8 @@ Time exists only as ``step counter * step_s``; there is no wall clock here.  One
 the whole state (turbines, condenser, grid source, PCC PLL and, for ``hd_visc`` turbines, the ViSC
 law state). The network is algebraic and solved at every stage with one reduced mat-vec of the
 pre-inverted Y (network.py). The slow mechanical terms are held over ``slow_every`` steps
-(docs/plant.md, Integration); the usual case of the right-hand side runs in fastrhs.py.
+(docs/plant.md, Integration); the usual case of the right-hand side runs in fastrhs.py, and the
+usual case of a whole step compiled in jitstep.py (``jit=False``: numpy only).
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ from plant import turbine as T
 from plant.condenser import NX as SC_NX
 from plant.condenser import Condenser
 from plant.fastrhs import FastRHS
+from plant.jitstep import JitPath
 from plant.network import Network
 from plant.params import OMEGA0, PlantParams
 
@@ -47,7 +49,7 @@ class Plant:
     """Software stand-in for the RTDS wind-farm model (see docs/plant.md)."""
 
     def __init__(self, params: PlantParams | None = None, n_turbines: int = 50, step_s: float = 0.67e-3,
-                 substeps: int = 1, method: str = "etd2", slow_every: int = 10):
+                 substeps: int = 1, method: str = "etd2", slow_every: int = 10, jit: bool = True):
         self.params = params or PlantParams()
         self.n = n = int(n_turbines)
         self.step_s = float(step_s)
@@ -71,6 +73,7 @@ class Plant:
         self._etd = None
         self._mode_key = None
         self._fast = FastRHS(self)
+        self._jit = JitPath(self) if jit else None  # jit=False: numpy only (the reference)
         self.slow_every = max(1, int(slow_every))
         self._slow_keep = False
         self._slow_next = 0
@@ -220,10 +223,11 @@ class Plant:
         if self._cache is None:
             # slow terms: re-evaluated every ``slow_every`` steps and after any command/event
             if not self._slow_keep or self.tb.slow is None or self.k >= self._slow_next:
-                self.tb.hold_slow(self.X[: self.o_sc].reshape(T.NS, self.n))
+                (self._jit or self.tb).hold_slow(self.X[: self.o_sc].reshape(T.NS, self.n))
                 self._slow_next = self.k + self.slow_every
             self._slow_keep = False
-            self._cache = self._rhs(self.X, self.xl, want_aux=True)
+            r = self._jit.evaluate() if self._jit is not None else None  # compiled usual case
+            self._cache = r if r is not None else self._rhs(self.X, self.xl, want_aux=True)
         return self._cache
 
     def step(self, remote_inputs=None) -> None:
@@ -239,6 +243,8 @@ class Plant:
             E, phi1, phi2 = self._etd_coeffs(h)
             if self.substeps == 1 and xl is None:  # the usual case: the loop below, unrolled
                 self._v_pcc_last = aux["v_pcc"]
+                if self._jit is not None and self._jit.step(k1, (E, phi1, phi2)):
+                    return
                 a = phi1 * k1
                 a += X
                 k2 = self._rhs(a, None)[0]
