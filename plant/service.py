@@ -26,7 +26,7 @@ import numpy as np
 
 from plant.recorder import Recorder
 from sdvisc import wire
-from sdvisc.jsonlines import JsonLineReader
+from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
 
@@ -97,8 +97,32 @@ def build_model(cfg: dict, names: list[str]):
             if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm:
                 raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
             indices.append(index)
+        warm_up_full_model(params, step_s)
         return Plant(params, n_turbines=n_farm, step_s=step_s), indices
     raise ValueError(f"unknown plant model {kind!r}")
+
+
+def warm_up_full_model(params, step_s: float) -> None:
+    """Run the code paths of a run once on a 2-turbine scratch plant with the same parameters:
+    remote references every step, a fault on and off, back to grid following. numba loads each
+    compiled kernel from its cache at its first call (tens of ms each); done here, before t = 0,
+    and not at the first CTRL packet (a 45 ms stall of the paced loop, measured)."""
+    from plant.sim import Plant
+
+    p = Plant(params, n_turbines=2, step_s=step_s)
+    p.set_mode([1], "remote")
+    for k in range(30):
+        if k in (10, 20):
+            p.fault(k == 10)
+        m = p.measurements()
+        p.apply_remote([1], m["v_d"][1:], m["v_q"][1:], m["i_d"][1:], m["i_q"][1:])
+        p.step()
+        if k % 5 == 0:
+            p.outputs()
+    p.set_mode([1], "grid_following")
+    for _ in range(3):
+        p.step()
+        p.measurements()
 
 
 class PlantService:
@@ -121,6 +145,7 @@ class PlantService:
         self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
         self.rx_stats = wire.DecodeStats()
         self.late_steps = 0
+        self.stalls: list[list] = []  # [t_sim at the start, worst lateness ms, last step] of each stall > 10 ms
         self.max_lateness_s = 0.0
         self.k = 0
         self.events_applied: list[dict] = []
@@ -278,9 +303,7 @@ class PlantService:
                   "meas_tx": sum(ep.counts["meas_tx"] for ep in self.endpoints),
                   "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in self.endpoints),
                   "streaming": [ep.name for ep in self.endpoints if ep.streaming]}
-        tmp = self.out_dir / "plant_status.json.tmp"
-        tmp.write_text(json.dumps(status))
-        tmp.replace(self.out_dir / "plant_status.json")
+        write_json_atomic(self.out_dir / "plant_status.json", status)
 
     def run(self) -> None:
         t0 = float(self.cfg.get("t0_wall") or time.time())
@@ -294,6 +317,11 @@ class PlantService:
             lateness = now - scheduled
             if lateness > self.step_s:
                 self.late_steps += 1
+                if lateness > 0.01 and len(self.stalls) < 100 and (not self.stalls or self.stalls[-1][2] < self.k - 1):
+                    self.stalls.append([round(self.k * self.step_s, 4), round(lateness * 1e3, 2), self.k])
+                elif self.stalls and self.stalls[-1][2] == self.k - 1:  # the same stall, still catching up
+                    self.stalls[-1][1] = max(self.stalls[-1][1], round(lateness * 1e3, 2))
+                    self.stalls[-1][2] = self.k
             self.max_lateness_s = max(self.max_lateness_s, lateness)
             self._drain(now)
             self.model.step()
@@ -314,6 +342,7 @@ class PlantService:
             "fallbacks": {ep.name: int(self.model.fallbacks[ep.index]) for ep in self.endpoints
                           if getattr(self.model, "fallbacks", None) is not None and self.model.fallbacks[ep.index]},
             "max_lateness_ms": self.max_lateness_s * 1e3,
+            "stalls": [{"t_sim": t, "worst_ms": ms, "steps": last - round(t / self.step_s) + 1} for t, ms, last in self.stalls],
             "rx_wire": self.rx_stats.as_dict(),
             "events": self.events_applied,
             "turbines": {
@@ -339,8 +368,13 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     cfg = json.loads(Path(args.config).read_text())
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
-    service = PlantService(cfg)
+    service = PlantService(cfg)  # builds the model (loads, or the first time compiles, its code)
     service.scheduling = raise_priority() if cfg.get("realtime_priority", True) else "default"
+    if cfg.get("t0_wall") is None and cfg.get("start_margin_s") is not None:
+        # the runner waits for this: t = 0 is set only once the model is ready, so a slow start
+        # (numba's cache loading, a first compile) does not show up as late steps
+        cfg["t0_wall"] = time.time() + float(cfg["start_margin_s"])
+        write_json_atomic(Path(cfg["out_dir"]) / "plant_ready.json", {"t0_wall": cfg["t0_wall"]})
     try:
         service.run()
     except KeyboardInterrupt:

@@ -212,14 +212,29 @@ class Run:
                      "pid": self.net.get(n).pid} for n, h in sorted(hosts.items()) if h["role"] == "turbine"]
         self._wait_sdcs_ready([(host, sdc_id) for host, sdc_id, _ in sdcs])
         time.sleep(0.3)  # let the other services bind their sockets
-        self.t0 = time.time() + START_MARGIN_S
-        plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": self.t0,
+        plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": None,
+                     "start_margin_s": START_MARGIN_S,
                      "model": sc.plant.model, "record": sc.plant.record or sc.turbines_named(),
                      "record_every": sc.plant.record_every, "ak_period_s": sc.plant.ak_period_s,
                      "ak_window_s": sc.plant.ak_window_s, "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s,
                      "remote_apply": sc.plant.remote_apply}
         cfg = self._write_json("plant_config.json", plant_cfg)
         self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
+        self.t0 = self._wait_plant_t0()
+
+    def _wait_plant_t0(self, timeout_s: float = SDC_READY_TIMEOUT_S) -> float:
+        """The plant sets t = 0 (wall time) once its model is built and says so in plant_ready.json."""
+        ready, end = self.out / "plant_ready.json", time.time() + timeout_s
+        while True:
+            try:
+                return float(json.loads(ready.read_text())["t0_wall"])
+            except (OSError, ValueError, KeyError):
+                pass
+            if self.procs["plant"].poll() is not None:
+                raise RunError(f"the plant exited during start-up; see {self.out / 'plant.log'}")
+            if time.time() > end:
+                raise RunError(f"the plant was not ready after {timeout_s:.0f} s; see {self.out / 'plant.log'}")
+            time.sleep(0.02)
 
     def _wait_sdcs_ready(self, sdcs: list[tuple[str, int]], timeout_s: float = SDC_READY_TIMEOUT_S) -> None:
         """Wait until every SDC has warmed up (its first run on a machine compiles the Tustin
