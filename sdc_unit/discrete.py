@@ -23,19 +23,17 @@ from . import law
 from .blocks import METHODS, make_first_order, make_pi, make_swing
 from .law import MEAS_FIELDS, Outputs
 from .params import RUNTIME_PARAMS, ViscParams
-from .tustin_pass import tustin_pass
 
-try:  # the compiled Tustin step; without numba the numpy pass is used (same results, slower)
+try:  # the compiled Tustin step; without numba the blocks are used (same results, slower)
     from . import tustin_jit as jit
 except ImportError:  # pragma: no cover - numba is a declared dependency
     jit = None
 
-ENGINES = ("auto", "jit", "numpy", "blocks")
+ENGINES = ("auto", "jit", "blocks")
 """How a Tustin sample is evaluated: "blocks" calls one block object per transfer function (the
-reference, and the only engine of the other methods); "numpy" is the same arithmetic written out
-(:mod:`sdc_unit.tustin_pass`, bit-identical); "jit" is it compiled with numba
-(:mod:`sdc_unit.tustin_jit`; float64 bit-identical, float32 to a few ulps, from the
-float32 cos/sin); "auto" = "jit" when available, else "numpy"."""
+reference, and the only engine of the other methods); "jit" is the same arithmetic compiled with
+numba (:mod:`sdc_unit.tustin_jit`; float64 bit-identical, float32 to a few ulps, from the float32
+cos/sin); "auto" = "jit" when available, else "blocks"."""
 
 OUT_FIELDS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "v_f", "p_e")
 
@@ -162,9 +160,9 @@ class DiscreteVisc:
         is held), so the trial is kept as the result. Otherwise the trial's states are rolled back
         (blocks replace their state arrays, never write into them, so keeping the old references
         is a complete snapshot) and the committed pass runs."""
+        if self._jit is not None:  # the same logic, compiled
+            return self._advance_jit(m, mask)
         lim_last = self.mem["limited"] > 0
-        if self.method == "tustin" and self.engine != "blocks":
-            return self._advance_tustin(m, mask, lim_last)
         saved = [(b, dict(b.s)) for b in self.blocks.values()]
         trial = self._pass(m, mask, (lim_last, self.mem["ild"], self.mem["ilq"]))
         limited = trial[2]
@@ -174,23 +172,6 @@ class DiscreteVisc:
             b.s = states
         lim_pred = (limited, trial[0]["ild"], trial[0]["ilq"])
         return self._commit_pass(mask, *self._pass(m, mask, lim_pred))
-
-    def _advance_tustin(self, m: dict, mask: np.ndarray, lim_last: np.ndarray) -> np.ndarray:
-        """The same two-pass logic, compiled (:mod:`sdc_unit.tustin_jit`) or, without numba, with
-        the written-out numpy pass (:mod:`sdc_unit.tustin_pass`), which returns its states so that
-        they are committed once."""
-        if self._jit is not None:
-            return self._advance_jit(m, mask)
-        mem = self.mem
-        new, new_mem, out, limited = tustin_pass(self, m, (lim_last, mem["ild"], mem["ilq"]))
-        if np.any(lim_last & mask) or np.any(limited & mask):
-            new, new_mem, out, limited = tustin_pass(self, m, (limited, new_mem["ild"], new_mem["ilq"]))
-        dt = self.dtype  # one masked select over all states (the rows become the new state arrays)
-        merged = np.where(mask, np.array([arr for _, _, arr in new], dtype=dt),
-                          np.array([b.s[name] for b, name, _ in new], dtype=dt))
-        for (b, name, _), row in zip(new, merged):
-            b.s[name] = row
-        return self._commit_pass(mask, new_mem, out, limited)
 
     def _jit_tables(self):
         """Constants and flags of the compiled step, or None where it cannot be used."""
