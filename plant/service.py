@@ -82,6 +82,7 @@ def build_model(cfg: dict, names: list[str]):
     if kind == "full":
         from dataclasses import replace
 
+        from plant.jitstep import warm_up
         from plant.params import PlantParams
         from plant.sim import Plant
 
@@ -97,32 +98,9 @@ def build_model(cfg: dict, names: list[str]):
             if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm:
                 raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
             indices.append(index)
-        warm_up_full_model(params, step_s)
+        warm_up(params, step_s)  # kernels loaded before t = 0, not at the first CTRL packet
         return Plant(params, n_turbines=n_farm, step_s=step_s), indices
     raise ValueError(f"unknown plant model {kind!r}")
-
-
-def warm_up_full_model(params, step_s: float) -> None:
-    """Run the code paths of a run once on a 2-turbine scratch plant with the same parameters:
-    remote references every step, a fault on and off, back to grid following. numba loads each
-    compiled kernel from its cache at its first call (tens of ms each); done here, before t = 0,
-    and not at the first CTRL packet (a 45 ms stall of the paced loop, measured)."""
-    from plant.sim import Plant
-
-    p = Plant(params, n_turbines=2, step_s=step_s)
-    p.set_mode([1], "remote")
-    for k in range(30):
-        if k in (10, 20):
-            p.fault(k == 10)
-        m = p.measurements()
-        p.apply_remote([1], m["v_d"][1:], m["v_q"][1:], m["i_d"][1:], m["i_q"][1:])
-        p.step()
-        if k % 5 == 0:
-            p.outputs()
-    p.set_mode([1], "grid_following")
-    for _ in range(3):
-        p.step()
-        p.measurements()
 
 
 class PlantService:

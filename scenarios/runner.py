@@ -29,7 +29,7 @@ from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, TestbedSwitch, defa
 
 SWITCH_CONNECT_TIMEOUT_S = 30.0
 START_MARGIN_S = 0.5
-SDC_READY_TIMEOUT_S = 120.0
+READY_TIMEOUT_S = 120.0
 
 
 class RunError(RuntimeError):
@@ -210,7 +210,8 @@ class Run:
                                              str(self.out / f"sdvisc-capture-{h}.pcap"), "udp"], host=node)
         turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"],
                      "pid": self.net.get(n).pid} for n, h in sorted(hosts.items()) if h["role"] == "turbine"]
-        self._wait_sdcs_ready([(host, sdc_id) for host, sdc_id, _ in sdcs])
+        for host, sdc_id, _ in sdcs:  # the plant starts only when every SDC is ready
+            self._wait_ready(f"{host}.sdc", f"sdc{sdc_id}_ready.json", f"SDC on {host}")
         time.sleep(0.3)  # let the other services bind their sockets
         plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": None,
                      "start_margin_s": START_MARGIN_S,
@@ -220,35 +221,24 @@ class Run:
                      "remote_apply": sc.plant.remote_apply}
         cfg = self._write_json("plant_config.json", plant_cfg)
         self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
-        self.t0 = self._wait_plant_t0()
+        # the plant sets t = 0 (wall time) once its model is built and warmed up
+        self.t0 = float(self._wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
 
-    def _wait_plant_t0(self, timeout_s: float = SDC_READY_TIMEOUT_S) -> float:
-        """The plant sets t = 0 (wall time) once its model is built and says so in plant_ready.json."""
-        ready, end = self.out / "plant_ready.json", time.time() + timeout_s
+    def _wait_ready(self, proc_name: str, ready_file: str, what: str, timeout_s: float = READY_TIMEOUT_S) -> dict:
+        """Wait for a service's ``ready_file`` (JSON, written atomically once it has warmed up: its
+        first run on a machine compiles numba code, some seconds); returns its content."""
+        ready, end = self.out / ready_file, time.time() + timeout_s
         while True:
             try:
-                return float(json.loads(ready.read_text())["t0_wall"])
-            except (OSError, ValueError, KeyError):
+                return json.loads(ready.read_text())
+            except (OSError, ValueError):
                 pass
-            if self.procs["plant"].poll() is not None:
-                raise RunError(f"the plant exited during start-up; see {self.out / 'plant.log'}")
+            log = self.out / f"{proc_name}.log"
+            if self.procs[proc_name].poll() is not None:
+                raise RunError(f"{what} exited during start-up; see {log}")
             if time.time() > end:
-                raise RunError(f"the plant was not ready after {timeout_s:.0f} s; see {self.out / 'plant.log'}")
+                raise RunError(f"{what} not ready after {timeout_s:.0f} s; see {log}")
             time.sleep(0.02)
-
-    def _wait_sdcs_ready(self, sdcs: list[tuple[str, int]], timeout_s: float = SDC_READY_TIMEOUT_S) -> None:
-        """Wait until every SDC has warmed up (its first run on a machine compiles the Tustin
-        step, some seconds) and says so in ``sdcN_ready``; the plant starts only then."""
-        end = time.time() + timeout_s
-        for host, sdc_id in sdcs:
-            ready = self.out / f"sdc{sdc_id}_ready"
-            while not ready.exists():
-                proc = self.procs[f"{host}.sdc"]
-                if proc.poll() is not None:
-                    raise RunError(f"SDC on {host} exited during start-up; see {self.out / f'{host}.sdc.log'}")
-                if time.time() > end:
-                    raise RunError(f"SDC on {host} not ready after {timeout_s:.0f} s; see {self.out / f'{host}.sdc.log'}")
-                time.sleep(0.05)
 
     # ------------------------------------------------------------------ timeline
     def _to_stdin(self, name: str, obj: dict) -> None:

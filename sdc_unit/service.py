@@ -42,6 +42,7 @@ import numpy as np
 
 from sdc_unit.bank import ControllerBank
 from sdvisc import wire
+from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
 from sdvisc.wire_batch import decode_batch, encode_batch, is_type, record_dtype
@@ -294,7 +295,7 @@ def main(argv: list[str] | None = None) -> int:
     if cfg.get("realtime_priority", True):
         raise_priority()
     if cfg.get("out_dir"):  # the runner starts the plant only when every SDC is ready
-        (Path(cfg["out_dir"]) / f"sdc{service.sdc_id}_ready").write_text(f"{time.time()}\n")
+        write_json_atomic(Path(cfg["out_dir"]) / f"sdc{service.sdc_id}_ready.json", {"t_ready": time.time()})
 
     def stop(*_):
         service.running = False

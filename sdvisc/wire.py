@@ -384,6 +384,11 @@ def word_count(mtype: MsgType, *, header: bool) -> int:
     return _CODECS[(int(mtype), header)].words
 
 
+def packer(mtype: MsgType, *, header: bool) -> struct.Struct:
+    """The ``struct`` of a ``mtype`` datagram: header words (if any), ``msg_type``, the fields."""
+    return _CODECS[(int(mtype), header)].struct
+
+
 def field_names(mtype: MsgType) -> tuple[str, ...]:
     """Names that :func:`encode` expects for ``mtype`` (the layout without ``msg_type``)."""
     return _CODECS[(int(mtype), False)].names

@@ -32,6 +32,7 @@ from sdvisc.wire import (
     MsgType,
     WireError,
 )
+from sdvisc.wire import packer as wire_packer
 
 HEADER_FIELDS = ("hdr_seq", "hdr_sec", "hdr_nsec")
 """Record fields of the VILLASnode header words (unsigned 32-bit)."""
@@ -175,12 +176,6 @@ def encode_batch(mtype: MsgType, columns: Mapping[str, np.ndarray | int | float]
     return [buf[k:k + size] for k in range(0, rows * size, size)]
 
 
-@cache
-def _struct(mtype: MsgType, header: bool) -> struct.Struct:
-    return struct.Struct(">" + ("III" if header else "") + "".join("i" if f.kind == "i32" else "f"
-                                                                    for f in LAYOUTS[mtype]))
-
-
 def _as_list(value, rows: int) -> list:
     if isinstance(value, np.ndarray) and value.ndim == 1:
         if len(value) != rows:
@@ -194,7 +189,7 @@ def _as_list(value, rows: int) -> list:
 def _encode_rows(mtype: MsgType, columns: Mapping, header: tuple | None, rows: int) -> list[bytes]:
     """encode_batch for a few rows: one ``struct.pack`` per row, the same checks and errors."""
     layout = LAYOUTS[mtype][1:]
-    packer = _struct(mtype, header is not None)
+    pack = wire_packer(mtype, header=header is not None).pack
     cols = [_as_list(columns[f.name], rows) for f in layout]
     heads = [_as_list(h, rows) for h in header] if header is not None else []
     float_at = [j for j, f in enumerate(layout) if f.kind == "f32"]
@@ -208,7 +203,7 @@ def _encode_rows(mtype: MsgType, columns: Mapping, header: tuple | None, rows: i
         if any(not 0 <= v <= UINT32_MAX for v in prefix):
             raise WireError("range", f"header {prefix} (row {r}) is not unsigned 32-bit")
         try:
-            out.append(packer.pack(*prefix, int(mtype), *values))
+            out.append(pack(*prefix, int(mtype), *values))
         except (struct.error, OverflowError) as exc:
             raise WireError("range", f"{mtype.name} row {r}: {exc}") from None
     return out
