@@ -13,10 +13,15 @@ mirrored sample (state identical to the primary's in exact arithmetic; doubles t
 from the turbine's present operating point (bumpless by construction: the first output equals the
 converter voltage the turbine applies). On ``TAKEOVER`` the instance starts answering.
 
-Sequence-number policy (per turbine, on ``MEAS.seq``):
+What is let through is decided by :mod:`sdc_unit.admission` (unknown or unserved turbine,
+out-of-range values, stale or inconsistent ``seq``/``t_sim``, commands not from the SDN app); every
+datagram it drops is counted by reason (``rejected`` in the stats file, wire-level reasons from
+:class:`sdvisc.wire.DecodeStats` included) and an unexpected exception while handling one is
+counted (``internal``) and logged, never fatal. Sequence-number policy (per turbine, on ``MEAS.seq``):
 
 * ``seq`` ≤ the last one used → duplicate or out of order: dropped, counted (``meas_stale``);
-  an older sample is never applied after a newer one.
+  an older sample is never applied after a newer one. A jump that ``t_sim`` does not confirm is
+  dropped (``inconsistent``) unless the next datagram confirms it (a restarted stream).
 * ``seq`` > last + 1 → the gap is counted as lost (``meas_lost``); the controller takes one step
   with the sample that arrived (it runs on received samples; a lost sample is not invented).
 * several samples of one turbine waiting in one receive batch (they queued while the process was
@@ -35,11 +40,15 @@ import socket
 import sys
 import threading
 import time
+import traceback
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from sdc_unit import admission
+from sdc_unit.admission import SeqGate
 from sdc_unit.bank import ControllerBank
 from sdvisc import wire
 from sdvisc.jsonlines import write_json_atomic
@@ -48,6 +57,7 @@ from sdvisc.stats import delay_summary
 from sdvisc.wire_batch import decode_batch, encode_batch, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
+MEAS_VALUE_KEYS = ("t_sim",) + ControllerBank.MEAS_KEYS
 CTRL_FLOATS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")
 STANDBY_MODES = ("latest", "track")
 
@@ -61,11 +71,11 @@ class Instance:
     slot: int
     addr: tuple[str, int] | None = None
     active: bool = False
-    last_seq: int = -1
+    gate: SeqGate | None = None
     ctrl_seq: int = 0
     counts: dict = field(default_factory=lambda: {"meas_rx": 0, "ctrl_tx": 0, "meas_lost": 0, "meas_stale": 0,
                                                   "meas_inactive": 0, "meas_tracked": 0,
-                                                  "ctrl_invalid": 0})
+                                                  "ctrl_invalid": 0, "meas_rejected": 0})
     first_meas_rx_t: float | None = None
     meas_delays_ms: list = field(default_factory=list)
 
@@ -76,6 +86,7 @@ class SdcService:
     def __init__(self, cfg: dict, sock: socket.socket | None = None) -> None:
         self.cfg = cfg
         self.sdc_id = int(cfg.get("sdc_id", 1))
+        self.step_s = float(cfg["step_s"])
         self.role = cfg.get("role", "primary")
         self.standby = cfg.get("standby", "latest")
         if self.standby not in STANDBY_MODES:
@@ -90,6 +101,8 @@ class SdcService:
         self.rx_records = np.zeros(0, dtype=record_dtype(wire.MsgType.MEAS, self.header))
         self.hb_seq = 0
         self.unexpected_rx = 0
+        self.rejected: Counter = Counter()  # by reason, see sdc_unit.admission (wire reasons: rx_wire)
+        self.internal_logged: set[str] = set()
         self.events: list[dict] = []
         self.running = True
 
@@ -101,12 +114,28 @@ class SdcService:
         sock.setblocking(False)
         return sock
 
-    def _instance(self, wid: int) -> Instance:
+    def _instance(self, wid: int, *, create: bool) -> Instance | None:
+        """The turbine's instance; a new one only with ``create`` and while a slot is free (the
+        bank's last slot is the warm-up scratch slot)."""
         inst = self.instances.get(wid)
-        if inst is None:
-            inst = Instance(wire.turbine_name(wid), wid, slot=len(self.instances))
+        if inst is None and create and len(self.instances) < self.bank.capacity - 1:
+            inst = Instance(wire.turbine_name(wid), wid, slot=len(self.instances), gate=SeqGate(self.step_s))
             self.instances[wid] = inst
         return inst
+
+    def _reject(self, reason: str, inst: Instance | None = None, key: str | None = None) -> None:
+        self.rejected[reason] += 1
+        if inst is not None and key is not None:
+            inst.counts[key] += 1
+
+    def _internal_error(self, where: str, exc: BaseException) -> None:
+        """An unexpected exception while handling received data: counted, logged once per place,
+        and the service goes on."""
+        self.rejected["internal"] += 1
+        if where not in self.internal_logged:
+            self.internal_logged.add(where)
+            traceback.print_exception(exc, file=sys.stderr)
+            print(f"sdc{self.sdc_id}: unexpected error in {where}; dropped and counted, serving on", file=sys.stderr)
 
     def _header(self, seq: int, now: float) -> wire.Header | None:
         if not self.header:
@@ -115,13 +144,33 @@ class SdcService:
         return wire.Header(seq, sec, int((now - sec) * 1e9))
 
     # ------------------------------------------------------------------ commands
-    def _on_request(self, msg: wire.Message, now: float) -> None:
+    def _on_request(self, msg: wire.Message, src_ip: str, now: float) -> None:
+        """A command from the SDN application (only from its address; anything else is counted)."""
+        if src_ip != self.controller[0]:
+            self._reject("not_controller")
+            return
         cmd, wid = msg["cmd"], msg["wt"]
-        inst = self._instance(wid)
-        status = wire.Status.OK
+        if not admission.turbine_ok(wid):
+            self._reject("unknown_turbine")
+            return
         params = {k: msg[k] for k in ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")}
+        starting = cmd in (wire.Command.START_INSTANCE, wire.Command.TAKEOVER)
+        inst = self._instance(wid, create=starting)
+        status = wire.Status.OK
+        if inst is None:
+            self._reject("unserved" if not starting else "capacity")
+            status = wire.Status.REFUSED if not starting else wire.Status.BUSY
+            self._answer(msg, status, wid, cmd, now)
+            return
+        if cmd in (wire.Command.START_INSTANCE, wire.Command.SET_PARAMS) and admission.bad_params(params):
+            self._reject("bad_params")
+            self.events.append({"t_wall": now, "type": "sdc_command", "cmd": wire.Command(cmd).name,
+                                "wt": inst.name, "status": "REFUSED", "bad_params": admission.bad_params(params)})
+            self._answer(msg, wire.Status.REFUSED, wid, cmd, now)
+            return
         if cmd == wire.Command.START_INSTANCE:
             inst.active = True
+            inst.gate.reset()
             self.bank.start(inst.slot, params)
         elif cmd == wire.Command.STOP_INSTANCE:
             inst.active = False
@@ -139,57 +188,95 @@ class SdcService:
             status = wire.Status.BAD_REQUEST
         self.events.append({"t_wall": now, "type": "sdc_command", "cmd": wire.Command(cmd).name,
                             "wt": inst.name, "status": status.name})
+        self._answer(msg, status, wid, cmd, now)
+
+    def _answer(self, msg: wire.Message, status: wire.Status, wid: int, cmd: int, now: float) -> None:
         reply = {"req_id": msg["req_id"], "status": int(status), "wt": wid, "cmd": cmd, "detail": 0}
-        self.sock.sendto(wire.encode(wire.MsgType.REPLY, reply, header=self._header(msg["req_id"], now)),
-                         self.controller)
+        try:
+            self.sock.sendto(wire.encode(wire.MsgType.REPLY, reply, header=self._header(msg["req_id"] & wire.UINT32_MAX,
+                                                                                          now)), self.controller)
+        except OSError:
+            self.rejected["reply_tx_error"] += 1
 
     # ------------------------------------------------------------------ measurements
     def _drain(self, now: float) -> dict[int, list[tuple[int, tuple]]]:
-        """Read every waiting datagram; returns, per turbine and in order, the usable measurements
-        as (row of ``self.rx_records``, sender address). MEAS datagrams are decoded together
-        (:func:`sdvisc.wire_batch.decode_batch`), anything else one by one, as it arrives."""
-        meas_data: list[bytes] = []
-        meas_addr: list[tuple] = []
+        """Read every waiting datagram and hand them to :meth:`receive`."""
+        datagrams: list[tuple[bytes, tuple]] = []
         while True:
             try:
-                data, addr = self.sock.recvfrom(2048)
+                datagrams.append(self.sock.recvfrom(2048))
             except BlockingIOError:
                 break
+            except OSError:  # e.g. an ICMP error queued on the socket: nothing to read, go on
+                self.rejected["socket_error"] += 1
+                break
+        return self.receive(datagrams, now)
+
+    def receive(self, datagrams: list[tuple[bytes, tuple]], now: float) -> dict[int, list[tuple[int, tuple]]]:
+        """Sort received (datagram, sender) pairs: commands are carried out at once, measurements
+        admitted (:mod:`sdc_unit.admission`); returns, per turbine and in order, the usable ones as
+        (row of ``self.rx_records``, sender address). MEAS datagrams are decoded together
+        (:func:`sdvisc.wire_batch.decode_batch`). Whatever cannot be used is counted by reason in
+        ``self.rejected`` and never reaches a controller; nothing here raises."""
+        meas_data: list[bytes] = []
+        meas_addr: list[tuple] = []
+        for data, addr in datagrams:
             if is_type(data, wire.MsgType.MEAS, self.header):
                 meas_data.append(data)
                 meas_addr.append(addr)
                 continue
             msg = self.rx_stats.decode(data, header=self.header)
             if msg is None:
-                continue
-            if msg.type == wire.MsgType.REQUEST:
-                self._on_request(msg, now)
-            else:
-                self.unexpected_rx += 1
-        batch: dict[int, list[tuple[int, tuple]]] = {}
+                continue  # counted by reason in rx_stats
+            try:
+                if msg.type == wire.MsgType.REQUEST:
+                    self._on_request(msg, addr[0], now)
+                else:
+                    self.unexpected_rx += 1
+                    self._reject("unexpected_type")
+            except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
+                self._internal_error("request", exc)
         if not meas_data:
-            return batch
+            return {}
+        try:
+            return self._admit_meas(meas_data, meas_addr, now)
+        except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
+            self._internal_error("measurements", exc)
+            return {}
+
+    def _admit_meas(self, meas_data: list[bytes], meas_addr: list[tuple], now: float) -> dict:
+        batch: dict[int, list[tuple[int, tuple]]] = {}
         rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
         self.rx_records = rec
         delays = ((now - (rec["hdr_sec"] + rec["hdr_nsec"] * 1e-9)) * 1e3).tolist() if self.header else None
-        for j, (wid, seq, t_sim) in enumerate(zip(rec["wt"].tolist(), rec["seq"].tolist(), rec["t_sim"].tolist())):
-            inst = self._instance(wid)
-            if seq <= inst.last_seq:
-                inst.counts["meas_stale"] += 1
+        columns = {k: rec[k].tolist() for k in ("wt", "seq") + MEAS_VALUE_KEYS}
+        for j, (wid, seq, t_sim) in enumerate(zip(columns["wt"], columns["seq"], columns["t_sim"])):
+            if not admission.turbine_ok(wid):
+                self._reject("unknown_turbine")
+                continue
+            inst = self._instance(wid, create=self.role == "backup")
+            if inst is None:
+                self._reject("unserved")
+                continue
+            if admission.meas_out_of_range({k: columns[k][j] for k in MEAS_VALUE_KEYS}):
+                self._reject("out_of_range", inst, "meas_rejected")
+                continue
+            previous = inst.gate.last_seq
+            verdict = inst.gate.admit(seq, t_sim)
+            if verdict is not None:
+                self._reject(verdict, inst, "meas_stale" if verdict == "stale" else "meas_rejected")
                 continue
             if not inst.active:
                 if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
-                    inst.last_seq = seq
                     inst.counts["meas_tracked"] += 1
                     if self.standby == "track":
                         self.bank.track(np.array([inst.slot]),
                                         {k: rec[k][j:j + 1].astype(float) for k in ControllerBank.MEAS_KEYS})
                 else:
-                    inst.counts["meas_inactive"] += 1
+                    self._reject("inactive", inst, "meas_inactive")
                 continue
-            if inst.last_seq >= 0 and seq > inst.last_seq + 1:
-                inst.counts["meas_lost"] += seq - inst.last_seq - 1
-            inst.last_seq = seq
+            if previous >= 0 and seq > previous + 1:
+                inst.counts["meas_lost"] += seq - previous - 1
             if delays is not None and len(inst.meas_delays_ms) < 200_000:
                 inst.meas_delays_ms.append(delays[j])
             inst.counts["meas_rx"] += 1
@@ -202,7 +289,10 @@ class SdcService:
         """One controller step per measurement, in sequence order; turbines stepped together."""
         depth = max((len(v) for v in batch.values()), default=0)
         for r in range(depth):
-            self._serve_round({w: v[r] for w, v in batch.items() if len(v) > r}, now)
+            try:
+                self._serve_round({w: v[r] for w, v in batch.items() if len(v) > r}, now)
+            except Exception as exc:  # noqa: BLE001 - a bad round never stops the service
+                self._internal_error("round", exc)
 
     def _serve_round(self, newest: dict[int, tuple[int, tuple]], now: float) -> None:
         """Step the turbines of one round together and answer each with one CTRL (one batch encode)."""
@@ -228,11 +318,19 @@ class SdcService:
         header = (seqs, sec, int((now - sec) * 1e9)) if self.header else None
         try:
             packets = encode_batch(wire.MsgType.CTRL, cols, header=header)
-        except wire.WireError:  # a value beyond float32: nothing of this round is sent
-            for inst in sent:
-                inst.counts["ctrl_invalid"] += 1
-            return
+        except wire.WireError:  # a value beyond float32 in some row: pack row by row, send the good ones
+            packets = []
+            for r in range(len(sent)):
+                row = {k: v[r:r + 1] for k, v in cols.items()}
+                row_header = (seqs[r:r + 1], header[1], header[2]) if header else None
+                try:
+                    packets += encode_batch(wire.MsgType.CTRL, row, header=row_header)
+                except wire.WireError:
+                    packets.append(None)
         for inst, data in zip(sent, packets):
+            if data is None:
+                inst.counts["ctrl_invalid"] += 1
+                continue
             try:
                 self.sock.sendto(data, (newest[inst.wid][1][0], wire.PORT_TURBINE))
                 inst.counts["ctrl_tx"] += 1
@@ -278,6 +376,8 @@ class SdcService:
             "rx_wire": self.rx_stats.as_dict(),
             "heartbeats_tx": self.hb_seq,
             "unexpected_rx": self.unexpected_rx,
+            "rejected": {**{k: v for k, v in self.rx_stats.as_dict().items() if k not in ("ok", "rejected") and v},
+                         **self.rejected},
             "events": self.events,
             "turbines": {i.name: {**i.counts, "first_meas_rx_t": i.first_meas_rx_t,
                                   "meas_one_way_ms": delay_summary(i.meas_delays_ms)}

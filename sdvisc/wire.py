@@ -478,11 +478,17 @@ def turbine_id(cluster: int, number: int) -> int:
     return cluster * 100 + number
 
 
-def turbine_name(wid: int) -> str:
-    """Turbine name for an id (101 -> "wt1_1")."""
+def is_turbine_id(wid: int) -> bool:
+    """True if ``wid`` is a turbine id as carried in ``wt`` words (cluster ≥ 1, number 1–99)."""
     cluster, number = divmod(wid, 100)
-    if cluster < 1 or number < 1:
+    return cluster >= 1 and number >= 1
+
+
+def turbine_name(wid: int) -> str:
+    """Turbine name for an id (101 -> "wt1_1"); ValueError if it is none (see :func:`is_turbine_id`)."""
+    if not is_turbine_id(wid):
         raise ValueError(f"{wid} is not a turbine id")
+    cluster, number = divmod(wid, 100)
     return f"wt{cluster}_{number}"
 
 
