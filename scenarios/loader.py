@@ -1,13 +1,24 @@
-"""Load a scenario YAML file and check it, with errors that name the file, line and key path."""
+"""Load a scenario YAML file and check it, with errors that name the file, line and key path.
+
+Every problem of a file is reported at once: pydantic's field errors, and the checks across
+sections (timeline times within ``duration_s``; turbines, hosts and links in the topology; ``set``
+parameters and plant actions the ``plant.model`` class can apply, plant/settable.py) made on
+whatever validated.
+"""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
-from pydantic import ValidationError
+from pydantic import TypeAdapter, ValidationError
 
-from scenarios.schema import Scenario
+from plant.settable import ACTIONS as PLANT_ACTIONS
+from plant.settable import model_class, settable_params, supported_actions
+from scenarios.schema import EVENT_KINDS, Event, Scenario, TopologySpec
+
+_EVENT = TypeAdapter(Event)
 
 
 class ScenarioError(ValueError):
@@ -36,17 +47,23 @@ def _line_of(node, path: tuple) -> int | None:
 def _clean_loc(loc: tuple) -> tuple:
     """Drop pydantic's union-tag entries (e.g. ``'visc_on'``) that are not keys of the file."""
     out = []
-    for i, part in enumerate(loc):
-        if i > 0 and out and out[0] == "timeline" and len(out) == 2 and isinstance(part, str) and part in (
-                "visc_on", "visc_off", "set_params", "link_down", "link_up", "path_link_down", "restore_links", "kill",
-                "set", "load_step", "fault", "scr"):
+    for part in loc:
+        if len(out) == 2 and out[0] == "timeline" and isinstance(part, str) and part in EVENT_KINDS:
             continue
         out.append(part)
     return tuple(out)
 
 
+def _message(err: dict) -> str:
+    if err["type"] == "extra_forbidden":
+        return "unknown key (not allowed here)"
+    if err["type"] == "finite_number":
+        return f"must be a finite number, not {err['input']!r}"
+    return err["msg"]
+
+
 def load_scenario(path: str | Path) -> Scenario:
-    """Parse and validate ``path``; raise :class:`ScenarioError` on any problem."""
+    """Parse and validate ``path``; raise :class:`ScenarioError` naming every problem of the file."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -61,48 +78,112 @@ def load_scenario(path: str | Path) -> Scenario:
         raise ScenarioError(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from exc
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}:1: expected a mapping of scenario keys at the top level")
+    problems: list[tuple[tuple, str]] = []
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as exc:
-        lines = []
-        for err in exc.errors():
-            loc = _clean_loc(tuple(err["loc"]))
-            key = ".".join(str(p) for p in loc) or "(top level)"
-            line = _line_of(root, loc)
-            msg = err["msg"]
-            if err["type"] == "extra_forbidden":
-                msg = "unknown key (not allowed here)"
-            lines.append(f"{path}:{line}: {key}: {msg}")
-        raise ScenarioError("\n".join(lines)) from exc
-    _check_names(path, root, scenario)
+        scenario = None
+        problems = [(_clean_loc(tuple(err["loc"])), _message(err)) for err in exc.errors()]
+    parts = _Parts.of_scenario(scenario) if scenario is not None else _Parts.of_partial(data, {loc for loc, _ in problems})
+    problems += parts.problems()
+    if problems:
+        lines = [(_line_of(root, loc), ".".join(str(p) for p in loc) or "(top level)", msg) for loc, msg in problems]
+        lines.sort(key=lambda item: item[0] or 0)
+        raise ScenarioError("\n".join(f"{path}:{line}: {key}: {msg}" for line, key, msg in lines))
     return scenario
 
 
-def _check_names(path: Path, root, scenario: Scenario) -> None:
-    """Turbines, hosts and links named in the timeline must exist in the chosen topology."""
-    from topologies import topos
-    from topologies.base import describe
+@dataclass
+class _Parts:
+    """What the cross-section checks need: the parts of the file that validated on their own."""
 
-    desc = describe(topos[scenario.topology.name](**scenario.topology.params()))
-    hosts = desc["hosts"]
-    links = {frozenset((lk["a"], lk["b"])) for lk in desc["links"]}
-    switches = set(desc["switches"])
-    problems = []
-    for i, event in enumerate(scenario.timeline):
-        wt = getattr(event, "wt", None)
-        if wt is not None and wt not in hosts:
-            problems.append((("timeline", i, "wt"),
-                             f"turbine {wt!r} is not in topology {scenario.topology.name} "
-                             f"({scenario.topology.clusters}x{scenario.topology.turbines})"))
-        if event.do in ("link_down", "link_up"):
-            ends = {event.a, event.b}
-            if not ends <= switches | set(hosts) or (ends <= switches and frozenset(ends) not in links):
-                problems.append((("timeline", i), f"no link {event.a}-{event.b} in topology {scenario.topology.name}"))
-        if event.do == "kill" and event.host not in hosts:
-            problems.append((("timeline", i, "host"), f"no host {event.host!r}"))
-    for name in list(scenario.sdn.visc_disabled) + list(scenario.plant.record or []):
-        if name not in hosts:
-            problems.append((("sdn",), f"turbine {name!r} is not in the topology"))
-    if problems:
-        raise ScenarioError("\n".join(
-            f"{path}:{_line_of(root, loc)}: {'.'.join(str(p) for p in loc)}: {msg}" for loc, msg in problems))
+    topology: TopologySpec
+    duration_s: float | None  # None: duration_s itself is invalid
+    model: str | None  # None: plant.model is invalid
+    events: list[tuple[int, object]]  # (index in the timeline, validated event)
+    turbines: list[tuple[tuple, str]]  # (key path, name) of sdn.visc_disabled and plant.record
+
+    @classmethod
+    def of_scenario(cls, sc: Scenario) -> _Parts:
+        turbines = [(("sdn", "visc_disabled", j), n) for j, n in enumerate(sc.sdn.visc_disabled)]
+        turbines += [(("plant", "record", j), n) for j, n in enumerate(sc.plant.record or [])]
+        return cls(sc.topology, sc.duration_s, sc.plant.model, list(enumerate(sc.timeline)), turbines)
+
+    @classmethod
+    def of_partial(cls, data: dict, bad: set[tuple]) -> _Parts:
+        """From a file that failed validation: each section, field and timeline entry that has no
+        error of its own (the default topology if ``topology`` is bad)."""
+        def ok(*path) -> bool:
+            return not any(loc[:len(path)] == path for loc in bad)
+
+        topology = TopologySpec.model_validate(data["topology"]) if "topology" in data and ok("topology") \
+            else TopologySpec()
+        duration = float(data["duration_s"]) if "duration_s" in data and ok("duration_s") else None
+        plant = data.get("plant", {})
+        model = plant.get("model", "minimal") if isinstance(plant, dict) and ok("plant", "model") else None
+        events = []
+        if isinstance(data.get("timeline"), list):
+            for i, entry in enumerate(data["timeline"]):
+                try:
+                    events.append((i, _EVENT.validate_python(entry)))
+                except ValidationError:
+                    pass  # reported already
+        turbines = []
+        for section, key in (("sdn", "visc_disabled"), ("plant", "record")):
+            names = data.get(section, {}).get(key) if isinstance(data.get(section), dict) else None
+            if isinstance(names, list):
+                turbines += [((section, key, j), n) for j, n in enumerate(names)
+                             if isinstance(n, str) and ok(section, key, j)]
+        return cls(topology, duration, model, events, turbines)
+
+    def problems(self) -> list[tuple[tuple, str]]:
+        out = []
+        if self.duration_s is not None:
+            out += [(("timeline", i, "t"), f"t={e.t} s is after duration_s={self.duration_s}")
+                    for i, e in self.events if e.t > self.duration_s]
+        out += self._name_problems()
+        if self.model is not None:
+            out += self._plant_problems()
+        return out
+
+    def _name_problems(self) -> list[tuple[tuple, str]]:
+        """Turbines, hosts and links named in the timeline must exist in the chosen topology."""
+        from topologies import topos
+        from topologies.base import describe
+
+        topo = self.topology
+        desc = describe(topos[topo.name](**topo.params()))
+        hosts = desc["hosts"]
+        links = {frozenset((lk["a"], lk["b"])) for lk in desc["links"]}
+        switches = set(desc["switches"])
+        problems = []
+        for i, event in self.events:
+            wt = getattr(event, "wt", None)
+            if wt is not None and wt not in hosts:
+                problems.append((("timeline", i, "wt"),
+                                 f"turbine {wt!r} is not in topology {topo.name} ({topo.clusters}x{topo.turbines})"))
+            if event.do in ("link_down", "link_up"):
+                ends = {event.a, event.b}
+                if not ends <= switches | set(hosts) or (ends <= switches and frozenset(ends) not in links):
+                    problems.append((("timeline", i), f"no link {event.a}-{event.b} in topology {topo.name}"))
+            if event.do == "kill" and event.host not in hosts:
+                problems.append((("timeline", i, "host"), f"no host {event.host!r}"))
+        for loc, name in self.turbines:
+            if name not in hosts:
+                problems.append((loc, f"turbine {name!r} is not in topology {topo.name} ({topo.clusters}x{topo.turbines})"))
+        return problems
+
+    def _plant_problems(self) -> list[tuple[tuple, str]]:
+        """``set`` parameters and plant actions must be ones the ``plant.model`` class can apply."""
+        cls = model_class(self.model)
+        settable = settable_params(cls)
+        supported = supported_actions(cls)
+        problems = []
+        for i, event in self.events:
+            if event.do == "set" and event.param not in settable:
+                problems.append((("timeline", i, "param"),
+                                 f"plant model {self.model} has no settable parameter {event.param!r} "
+                                 f"(settable: {', '.join(settable) or 'none'})"))
+            elif event.do in PLANT_ACTIONS and event.do not in supported:
+                problems.append((("timeline", i, "do"), f"plant model {self.model} cannot apply {event.do}"))
+        return problems

@@ -1,6 +1,9 @@
 """The scenario file schema (pydantic): topology, timing, plant/SDC/SDN settings and a timeline.
 
-Unknown keys are rejected everywhere. Timeline entries are discriminated by ``do``::
+Unknown keys and non-finite numbers (NaN, inf) are rejected everywhere. The checks that need more
+than one section (timeline times within ``duration_s``, names in the topology, ``set`` parameters
+of the plant model) are made by :func:`scenarios.loader.load_scenario`, together with these.
+Timeline entries are discriminated by ``do``::
 
     timeline:
       - {t: 1.0, do: visc_on, wt: wt1_1, params: {h: 3.0, m_q: 0.02}}
@@ -10,7 +13,7 @@ Unknown keys are rejected everywhere. Timeline entries are discriminated by ``do
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
@@ -18,7 +21,7 @@ TURBINE_PATTERN = r"^wt\d+_\d+$"
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
 class TopologySpec(Strict):
@@ -135,7 +138,8 @@ class Kill(_Event):
 
 class SetParam(_Event):
     do: Literal["set"]
-    param: str = Field(description="a plant parameter with a set_<param> method, e.g. avr_ref, grid_voltage")
+    param: str = Field(description="a plant parameter with a one-number set_<param> method of plant.model, e.g. "
+                                   "grid_voltage, avr_ref (full); see plant/settable.py")
     value: float
 
 
@@ -157,6 +161,7 @@ class Scr(_Event):
 Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | PathLinkDown | RestoreLinks | Kill | SetParam
                   | LoadStep | Fault | Scr,
                   Field(discriminator="do")]
+EVENT_KINDS = tuple(get_args(cls.model_fields["do"].annotation)[0] for cls in get_args(get_args(Event)[0]))
 
 
 class Scenario(Strict):
@@ -169,14 +174,7 @@ class Scenario(Strict):
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)
     capture: CaptureSpec = Field(default_factory=CaptureSpec)
-    timeline: list[Event] = Field(default_factory=list)
-
-    @model_validator(mode="after")
-    def _timeline_within_duration(self):
-        for i, event in enumerate(self.timeline):
-            if event.t > self.duration_s:
-                raise ValueError(f"timeline[{i}] at t={event.t} s is after duration_s={self.duration_s}")
-        return self
+    timeline: list[Event] = Field(default_factory=list, description="each t <= duration_s (checked by the loader)")
 
     def turbines_named(self) -> list[str]:
         names = []
