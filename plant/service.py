@@ -8,7 +8,8 @@ application tells it to (``REQUEST STREAM_START``, which also names the SDC); fr
 step it sends one ``MEAS``, applies the newest ``CTRL`` it received (hold last value; fall back
 after the model's loss time), and reports ``AK`` (1 when a ``CTRL`` arrived within
 ``ak_window_s``) to the SDN application every ``ak_period_s`` and at once whenever it changes. Scenario events arrive as JSON lines on stdin.
-Malformed packets are dropped and counted, never applied.
+Malformed, unexpected or implausible packets are dropped and counted by reason, never applied
+(:mod:`plant.endpoint_rx`).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from plant import endpoint_rx
 from plant.recorder import Recorder
 from sdvisc import wire
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
@@ -122,6 +124,7 @@ class PlantService:
             self.endpoints.append(Endpoint(t["name"], t["wid"], index, sock))
         self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
         self.rx_stats = wire.DecodeStats()
+        self.check_rx_source = bool(cfg.get("check_rx_source", True))  # see plant.endpoint_rx
         self.late_steps = 0
         self.stalls: list[list] = []  # [t_sim at the start, worst lateness ms, last step] of each stall > 10 ms
         self.max_lateness_s = 0.0
@@ -157,30 +160,27 @@ class PlantService:
                     data, addr = ep.sock.recvfrom(2048)
                 except BlockingIOError:
                     break
-                msg = self.rx_stats.decode(data, header=self.header)
-                if msg is None or msg["wt"] != ep.wid:
-                    ep.counts["rx_rejected"] += 1
-                    continue
-                if msg.type == wire.MsgType.CTRL:
-                    if self._on_ctrl(ep, msg, now) and ep.streaming:
-                        newest[ep.index] = msg
-                elif msg.type == wire.MsgType.REQUEST:
-                    self._on_request(ep, msg)
-                else:
-                    ep.counts["rx_rejected"] += 1
+                except OSError:  # e.g. an ICMP error reported on the socket: nothing to read now
+                    ep.counts["rx_socket_error"] = ep.counts.get("rx_socket_error", 0) + 1
+                    break
+                try:  # one bad datagram never stops the loop
+                    action, msg = endpoint_rx.receive(ep, data, addr, header=self.header, controller_ip=self.vip,
+                                                      stats=self.rx_stats, check_source=self.check_rx_source)
+                    if action == endpoint_rx.APPLY:
+                        self._on_ctrl(ep, msg, now)
+                        if ep.streaming:
+                            newest[ep.index] = msg
+                    elif action == endpoint_rx.REQUEST:
+                        self._on_request(ep, msg)
+                except Exception as error:  # noqa: BLE001 - counted and logged once
+                    endpoint_rx.count_internal(ep.counts, error)
         if newest:
             index = np.fromiter(newest, dtype=np.intp, count=len(newest))
             field = {k: np.array([m[k] for m in newest.values()]) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q")}
             self.model.apply_remote(index, field["v_ref_d"], field["v_ref_q"], field["i_ref_d"], field["i_ref_q"])
 
-    def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> bool:
-        """Account for one CTRL; True if it is the newest so far (the one to apply)."""
-        # ordered by the measurement it answers (our own counter, whichever SDC answered it):
-        # a duplicate or out-of-order answer is never applied after a newer one
-        if msg["meas_seq"] <= ep.ctrl_seq:
-            ep.counts["ctrl_stale"] += 1
-            return False
-        ep.ctrl_seq = msg["meas_seq"]
+    def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
+        """Account for one CTRL that :func:`plant.endpoint_rx.receive` accepted (the newest so far)."""
         ep.counts["ctrl_rx"] += 1
         if ep.last_ctrl_wall > float("-inf") and now - ep.last_ctrl_wall > CTRL_GAP_S:
             ep.ctrl_gaps.append((ep.last_ctrl_wall, now))
@@ -197,9 +197,9 @@ class PlantService:
             ep.first_ctrl_rx_t = t_sim
         if msg.header is not None and len(ep.ctrl_delays_ms) < 200_000:
             ep.ctrl_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
-        return True
 
     def _on_request(self, ep: Endpoint, msg: wire.Message) -> None:
+        """Carry out a STREAM_START/STREAM_STOP that :func:`plant.endpoint_rx.receive` accepted."""
         ep.counts["requests_rx"] += 1
         cmd = msg["cmd"]
         t_sim = self.k * self.step_s
@@ -322,6 +322,7 @@ class PlantService:
             "max_lateness_ms": self.max_lateness_s * 1e3,
             "stalls": [{"t_sim": t, "worst_ms": ms, "steps": last - round(t / self.step_s) + 1} for t, ms, last in self.stalls],
             "rx_wire": self.rx_stats.as_dict(),
+            "rx_rejected": endpoint_rx.rejections_by_reason(ep.counts for ep in self.endpoints),
             "events": self.events_applied,
             "turbines": {
                 ep.name: {**ep.counts, "first_meas_tx_t": ep.first_meas_tx_t, "first_ctrl_rx_t": ep.first_ctrl_rx_t,

@@ -10,6 +10,11 @@ JSON lines on stdin (the runner plays the scenario timeline into it)::
 and sends each as a ``REQUEST`` to the SDN application's virtual IP, re-sending (same ``req_id``)
 when no ``REPLY`` arrives within ``retry_s``. Every request and reply is logged to
 ``owfcc_events.jsonl`` in the output directory with its wall time and round-trip time.
+
+A received datagram that is not the awaited ``REPLY`` to a pending request is dropped and counted
+(``rx_rejected`` and ``rx_reject_<reason>``, see :data:`RX_REASONS`); a late answer to a request
+already answered or given up (e.g. to a retry) is only counted (``replies_late``). The counters
+are written to ``owfcc_stats.json`` when the OWFCC stops.
 """
 
 from __future__ import annotations
@@ -17,16 +22,23 @@ from __future__ import annotations
 import argparse
 import json
 import select
+import signal
 import socket
 import sys
 import time
+import traceback
 from pathlib import Path
 
 from sdvisc import wire
-from sdvisc.jsonlines import JsonLineReader
+from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 
 COMMANDS = {"visc_on": wire.Command.VISC_ON, "visc_off": wire.Command.VISC_OFF,
             "set_params": wire.Command.SET_PARAMS}
+RX_REASONS: tuple[str, ...] = wire.REJECT_REASONS + ("unexpected_type", "unknown_req_id", "mismatch", "internal")
+"""Why a received datagram was dropped: the wire reasons (not a valid testbed message);
+``unexpected_type``: a valid message other than REPLY; ``unknown_req_id``: a REPLY to a request id
+never issued; ``mismatch``: a REPLY whose ``wt`` or ``cmd`` is not that of the pending request with
+its id (the request stays pending); ``internal``: handling it raised (logged once to stderr)."""
 PARAM_BITS = {"h": wire.ParamMask.H, "d": wire.ParamMask.D, "m_q": wire.ParamMask.M_Q,
               "v_ref": wire.ParamMask.V_REF, "q_ref": wire.ParamMask.Q_REF, "supp": wire.ParamMask.SUPP}
 
@@ -45,19 +57,23 @@ def request_values(req_id: int, command: dict) -> dict:
 
 
 class Owfcc:
-    def __init__(self, cfg: dict) -> None:
+    def __init__(self, cfg: dict, sock: socket.socket | None = None) -> None:
         self.cfg = cfg
         self.vip = (cfg["controller_vip"], wire.PORT_CONTROLLER)
         self.header = bool(cfg.get("header", True))
         self.retry_s = float(cfg.get("retry_s", 0.5))
         self.max_tries = int(cfg.get("max_tries", 4))
-        self.sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        self.sock.bind(("0.0.0.0", wire.PORT_OWFCC))
-        self.sock.setblocking(False)
+        if sock is None:  # (tests hand in their own socket)
+            sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            sock.bind(("0.0.0.0", wire.PORT_OWFCC))
+            sock.setblocking(False)
+        self.sock = sock
         self.log = open(Path(cfg["out_dir"]) / "owfcc_events.jsonl", "a", buffering=1)  # noqa: SIM115
         self.pending: dict[int, dict] = {}
         self.next_id = 1
         self.rx_stats = wire.DecodeStats()
+        self.counts = {"replies_rx": 0, "replies_late": 0, "rx_rejected": 0}
+        self._internal_logged = False
 
     def _log(self, **event) -> None:
         self.log.write(json.dumps({"t_wall": time.time(), **event}) + "\n")
@@ -88,15 +104,60 @@ class Owfcc:
                 data, _ = self.sock.recvfrom(2048)
             except BlockingIOError:
                 return
-            msg = self.rx_stats.decode(data, header=self.header)
-            if msg is None or msg.type != wire.MsgType.REPLY:
-                continue
-            p = self.pending.pop(msg["req_id"], None)
-            if p is None:
-                continue
-            self._log(type="owfcc_reply", req_id=msg["req_id"], wt=p["command"]["wt"], cmd=p["command"]["cmd"],
-                      status=wire.Status(msg["status"]).name, rtt_ms=(time.time() - p["t_first"]) * 1e3,
-                      tries=p["tries"])
+            except OSError:  # e.g. an ICMP error reported on the socket: nothing to read now
+                self.counts["rx_socket_error"] = self.counts.get("rx_socket_error", 0) + 1
+                return
+            try:  # one bad datagram never stops the OWFCC
+                self.receive(data, time.time())
+            except Exception as error:  # noqa: BLE001 - counted and logged once
+                self._reject("internal")
+                if not self._internal_logged:
+                    self._internal_logged = True
+                    print(f"owfcc: handling a received datagram raised {type(error).__name__}: {error}; dropped "
+                          "and counted as rx_reject_internal (further ones are only counted)", file=sys.stderr)
+                    traceback.print_exception(type(error), error, error.__traceback__, file=sys.stderr)
+
+    def _reject(self, reason: str) -> None:
+        self.counts["rx_rejected"] += 1
+        key = "rx_reject_" + reason
+        self.counts[key] = self.counts.get(key, 0) + 1
+
+    def receive(self, data: bytes, now: float) -> dict | None:
+        """Handle one datagram received at wall time ``now``: the REPLY to a pending request
+        completes it (logged; the log entry is returned); anything else is counted and dropped."""
+        try:
+            msg = wire.decode(data, header=self.header)
+        except wire.WireError as error:
+            setattr(self.rx_stats, error.reason, getattr(self.rx_stats, error.reason) + 1)
+            self._reject(error.reason)
+            return None
+        self.rx_stats.ok += 1
+        if msg.type != wire.MsgType.REPLY:
+            self._reject("unexpected_type")
+            return None
+        req_id = msg["req_id"]
+        p = self.pending.get(req_id)
+        if p is None:
+            if 1 <= req_id < self.next_id:  # ours, already answered or given up: a duplicate or late answer
+                self.counts["replies_late"] += 1
+            else:
+                self._reject("unknown_req_id")
+            return None
+        if msg["wt"] != p["values"]["wt"] or msg["cmd"] != p["values"]["cmd"]:
+            self._reject("mismatch")
+            return None
+        del self.pending[req_id]
+        self.counts["replies_rx"] += 1
+        event = {"type": "owfcc_reply", "req_id": req_id, "wt": p["command"]["wt"], "cmd": p["command"]["cmd"],
+                 "status": wire.Status(msg["status"]).name,  # a valid code: decode checked it
+                 "rtt_ms": (now - p["t_first"]) * 1e3, "tries": p["tries"]}
+        self._log(**event)
+        return event
+
+    def stats(self) -> dict:
+        """Requests issued and still pending, the receive counters and the wire-level outcomes."""
+        return {"requests": self.next_id - 1, "pending": len(self.pending), **self.counts,
+                "rx_wire": self.rx_stats.as_dict()}
 
     def _retry(self) -> None:
         now = time.time()
@@ -130,11 +191,16 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m sdvisc.owfcc", description=__doc__)
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
-    owfcc = Owfcc(json.loads(Path(args.config).read_text()))
+    cfg = json.loads(Path(args.config).read_text())
+    owfcc = Owfcc(cfg)
+    # the runner stops the OWFCC with SIGTERM: end like Ctrl-C, so the statistics are written
+    signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     try:
         owfcc.run()
     except KeyboardInterrupt:
         pass
+    finally:
+        write_json_atomic(Path(cfg["out_dir"]) / "owfcc_stats.json", owfcc.stats())
     return 0
 
 
