@@ -1,17 +1,31 @@
 """AK bookkeeping and the dynamic-routing event ``DR_i = ViSC_WT_i ∧ ¬AK_i`` with its hold time.
 
 Pure: every call takes ``now`` (s). A turbine's AK message says whether control packets arrive
-normally (``ak``) and how long ago the last one arrived (``ctrl_age``); the loss therefore
-started at ``t_rx − ctrl_age``. A missing AK counts as 0: if no AK has arrived for
-``ak_timeout_s`` the loss is taken to have started at the last AK received. ``DR_i`` is confirmed
-once the loss has lasted ``hold_s`` (the paper's 40 ms), checked on every timer tick. After a
-reroute the hold starts again from the reroute time, so a second failure on the new path is
-detected the same way.
+normally (``ak``) and how long ago the last one arrived (``ctrl_age``), as of the moment it was
+sent (``sent``, the GTNET header's timestamp: one clock on this testbed; the receive time where
+the header is missing or implausible). The loss therefore started at ``sent − ctrl_age``.
+
+``DR_i`` is confirmed from the turbine's own reports, not from the network's delays:
+
+* **reported**: an AK = 0 whose ``ctrl_age`` shows the loss has lasted ``hold_s`` (the paper's
+  40 ms) when it was sent. A delayed AK cannot cause it, and an AK = 1 that is still in flight
+  cannot be overtaken by it: the turbine said so itself.
+* **inferred from silence** (the failure also cut the AK path): no AK at all for ``ak_timeout_s``
+  counts as AK = 0 from the last report on, confirmed after ``hold_s`` — but only while the
+  controller is not stalled (``stalled``: no packet-in from any other source either; then the
+  silence says nothing about this turbine and nothing is decided until packets flow again), and
+  counted from the end of the last such stall (``resumed``) if that is later.
+
+After a reroute the hold starts again from the reroute time, so a second failure on the new path
+is detected the same way.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+
+PLAUSIBLE_CLOCK_S = 1.0
+"""An AK's send time further than this from its receive time is not trusted (other clock)."""
 
 
 @dataclass
@@ -22,7 +36,9 @@ class AckTrack:
     seq: int = -1
     ctrl_rx: int = 0
     t_last_rx: float | None = None
+    t_last_sent: float | None = None
     t_loss: float | None = None
+    t_reported: float | None = None
     t_rearm: float = float("-inf")
     fired: bool = False
     confirmed: int = 0
@@ -51,7 +67,7 @@ class DrMonitor:
         turbine's start-up is not mistaken for a failure; after a reroute the hold restarts at once.
         """
         t = self.track(wt)
-        t.t_loss, t.fired, t.t_rearm, t.t_last_rx = None, False, now, now
+        t.t_loss, t.t_reported, t.fired, t.t_rearm, t.t_last_rx, t.t_last_sent = None, None, False, now, now, now
         t.armed = armed
         if not armed:
             t.t_rearm = now + self.start_grace_s
@@ -59,41 +75,69 @@ class DrMonitor:
     def stop(self, wt: str) -> None:
         self.tracks.pop(wt, None)
 
-    def on_ak(self, wt: str, seq: int, ak: int, ctrl_rx: int, ctrl_age_s: float, now: float) -> bool:
-        """Record one AK message; False if it is a duplicate or older than the last one."""
+    def on_ak(self, wt: str, seq: int, ak: int, ctrl_rx: int, ctrl_age_s: float, now: float,
+              sent: float | None = None) -> bool:
+        """Record one AK message received at ``now`` (sent at ``sent``, if known); False if it is
+        a duplicate or older than the last one."""
         t = self.track(wt)
         if seq <= t.seq:
             return False
+        if sent is None or not now - PLAUSIBLE_CLOCK_S <= sent <= now:
+            sent = now
         t.seq, t.ak, t.ctrl_rx, t.t_last_rx = seq, ak, ctrl_rx, now
+        t.t_last_sent = sent if t.t_last_sent is None else max(t.t_last_sent, sent)
         if ak:
             if not t.armed:  # communication established: the start-up grace ends now
                 t.armed, t.t_rearm = True, now
-            t.t_loss, t.fired = None, False
+            t.t_loss, t.t_reported, t.fired = None, None, False
         else:
-            started = max(now - max(ctrl_age_s, 0.0), t.t_rearm)
-            t.t_loss = started if t.t_loss is None else min(t.t_loss, started)
+            started = max(sent - max(ctrl_age_s, 0.0), t.t_rearm)
+            if t.t_loss is None or (t.t_reported is not None and started > t.t_reported):
+                t.t_loss = started  # a new loss: control packets arrived after the previous report
+            else:
+                t.t_loss = min(t.t_loss, started)
+            t.t_reported = sent if t.t_reported is None else max(t.t_reported, sent)
         return True
 
-    def loss_since(self, wt: str, now: float) -> float | None:
-        """When the current loss of control packets started, or None if there is none."""
+    def _silent(self, t: AckTrack, now: float, resumed: float) -> bool:
+        return t.t_last_rx is not None and now - max(t.t_last_rx, resumed) > self.ak_timeout_s
+
+    def loss_since(self, wt: str, now: float, *, stalled: bool = False,
+                   resumed: float = float("-inf")) -> float | None:
+        """When the current loss of control packets started (reported, or inferred from AK
+        silence unless ``stalled``; silence counted from ``resumed``, the end of the controller's
+        last stall, if later), or None if there is none."""
         t = self.tracks.get(wt)
-        if t is None:
+        if t is None or now < t.t_rearm:
             return None
         if t.t_loss is not None:
-            return t.t_loss if now >= t.t_rearm else None
-        if t.t_last_rx is not None and now - t.t_last_rx > self.ak_timeout_s and now >= t.t_rearm:
-            return max(t.t_last_rx, t.t_rearm)  # AK messages stopped: missing AK counts as 0
+            return t.t_loss
+        if self._silent(t, now, resumed) and not stalled:
+            return max(t.t_last_sent if t.t_last_sent is not None else t.t_last_rx, t.t_rearm)
         return None
 
-    def due(self, wt_in_visc: list[str], now: float) -> list[tuple[str, float]]:
+    def reported_loss(self, wt: str) -> float:
+        """How long the turbine's own reports say its current loss has lasted (0 if none)."""
+        t = self.tracks.get(wt)
+        if t is None or t.t_loss is None or t.t_reported is None:
+            return 0.0
+        return max(0.0, t.t_reported - t.t_loss)
+
+    def _confirmed(self, t: AckTrack, since: float, now: float, stalled: bool, resumed: float) -> bool:
+        if t.t_reported is not None and t.t_reported - since >= self.hold_s:
+            return True  # the turbine itself reported a loss as long as the hold
+        return self._silent(t, now, resumed) and not stalled and now - since >= self.hold_s
+
+    def due(self, wt_in_visc: list[str], now: float, *, stalled: bool = False,
+            resumed: float = float("-inf")) -> list[tuple[str, float]]:
         """Turbines whose DR is confirmed at ``now`` (each reported once per loss)."""
         out = []
         for wt in wt_in_visc:
             t = self.track(wt)
-            since = self.loss_since(wt, now)
+            since = self.loss_since(wt, now, stalled=stalled, resumed=resumed)
             if since is None or t.fired:
                 continue
-            if now - since >= self.hold_s:
+            if self._confirmed(t, since, now, stalled, resumed):
                 t.fired = True
                 t.confirmed += 1
                 out.append((wt, since))

@@ -30,6 +30,7 @@ from os_ken.lib.packet import ethernet, ipv4, packet, udp
 from sdn_app import flows as fl
 from sdn_app.config import AppConfig
 from sdn_app.dr import DrMonitor
+from sdn_app.liveness import SdcLiveness
 from sdn_app.paths import build_graph, choose_path, hops, link_key, path_links
 from sdn_app.protection import protect_direction
 from sdn_app.tables import Tables, TurbineAddress
@@ -37,8 +38,12 @@ from sdvisc import wire
 
 ETH_TYPE_LEARN = 0x88B5  # IEEE local experimental ethertype: frames that only teach L2 switches
 PARAM_KEYS = ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")
-SETTLE_S = 0.2  # no SDC-death decision this soon after our own flow changes
-CORROBORATE_S = 0.020  # a served turbine's loss must have lasted this long to confirm an SDC death
+SETTLE_S = 0.2  # no SDC-death decision this soon after our own flow changes (unless the silence began before them)
+CORROBORATE_S = 0.020  # every served turbine's loss must have lasted this long to confirm an SDC death
+HEARTBEAT_PERIOD_S = 0.010  # the SDC's nominal heartbeat period (sdc_unit.service.HEARTBEAT_S)
+IDLE_SDC_DEAD_FACTOR = 3.0  # an SDC serving no turbine (no corroboration possible): this many sdc_dead_s
+STALL_S = 0.015  # no packet-in at all from anyone for this long: our own (or the switches') stall
+MAX_STALL_S = 0.5  # ... but a silence this long is no stall any more (nothing is left that talks to us)
 
 
 @dataclass
@@ -54,6 +59,7 @@ class ActivePath:
     reroutes: int = 0
     groups: list[tuple[int, int]] = field(default_factory=list)  # (dpid, group id) of FF groups
     installed: list = field(default_factory=list)  # the group and flow adds, for switch reconnects
+    params: dict = field(default_factory=dict)  # the ViSC parameters of the request (re-sent to a restarted SDC)
 
 
 class Controller:
@@ -74,8 +80,11 @@ class Controller:
         self.paths: dict[str, ActivePath] = {}
         self.dr = DrMonitor(config.dr_hold_s, config.ak_timeout_s)
         self.active_sdc = config.primary_sdc
-        self.sdc_heartbeat: dict[str, float] = {}
-        self.sdc_dead: set[str] = set()
+        self.liveness = SdcLiveness(HEARTBEAT_PERIOD_S, config.sdc_dead_s)
+        self.suspects: set[str] = set()  # silent SDCs not (yet) confirmed dead: one event per episode
+        self.partitioned: dict[str, float] = {}  # turbines with no path to their SDC, since (t_loss)
+        self.t_last_packet_in = float("-inf")
+        self.t_resumed = float("-inf")  # end of the last stall: a packet-in after none for STALL_S
         self.connected: set[int] = set()
         self.counters: Counter = Counter()
         self.events: list[dict] = []
@@ -111,6 +120,21 @@ class Controller:
     def take_events(self) -> list[dict]:
         out, self.events = self.events, []
         return out
+
+    @property
+    def sdc_dead(self) -> set[str]:
+        """SDCs declared dead (and not yet seen alive again)."""
+        return self.liveness.dead
+
+    def _wrong_ingress(self, host: str, where: tuple[int, int] | None) -> bool:
+        """True if a packet claiming to come from ``host`` entered the network elsewhere than its
+        registered port. Checkable only where that port is an OpenFlow port; behind a plain L2
+        switch (the paper topology's turbines) the controller sees the uplink, so a host on the
+        same L2 switch can impersonate another one (docs/sdn.md)."""
+        info = self.config.topology.hosts.get(host)
+        if where is None or info is None or info.switch not in self.dpids:
+            return False
+        return where != (self.dpids[info.switch], info.port)
 
     def _host(self, name: str):
         return self.config.topology.hosts[name]
@@ -335,8 +359,10 @@ class Controller:
             actions += self._relearn_behind_l2(key, now)
         if not up and self.config.reroute_on_port_status:
             for name, active in list(self.paths.items()):
-                if key in path_links(active.path):
+                if key in path_links(active.path) and name not in self.partitioned:
                     actions += self._reroute(name, "port_status", now, t_loss=None)
+        if up:
+            actions += self._heal(now)
         return actions
 
     def _turbine_port(self, switch: str | None, port: int, up: bool, now: float) -> list:
@@ -382,12 +408,13 @@ class Controller:
 
     def tick(self, now: float) -> list:
         """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state."""
-        silent = {sdc for sdc, t in self.sdc_heartbeat.items() if now - t > self.config.sdc_dead_s}
-        actions = self._check_sdcs(now, silent)
-        # a turbine whose SDC is dead or silent is not rerouted: the link is not the likely problem,
-        # and rerouting would keep changing flows while the SDC's fate is being decided
-        in_visc = [n for n, p in self.paths.items() if p.sdc not in self.sdc_dead and p.sdc not in silent]
-        for name, t_loss in self.dr.due(in_visc, now):
+        actions = self._check_sdcs(now)
+        # a turbine whose SDC is dead is failed over, not rerouted; one with no path waits for the
+        # topology to change. A merely *suspected* SDC never holds a DR back: the DR stands on the
+        # turbine's own reports, and an SDC death is decided on its own evidence.
+        in_visc = [n for n, p in self.paths.items() if p.sdc not in self.sdc_dead and n not in self.partitioned]
+        stalled = self._stalled(now)
+        for name, t_loss in self.dr.due(in_visc, now, stalled=stalled, resumed=self.t_resumed):
             if self.config.dynamic_routing:
                 actions += self._reroute(name, "dr", now, t_loss=t_loss)
             else:
@@ -408,9 +435,7 @@ class Controller:
             new_path = candidate if candidate != active.path else None
         self.dr.start(name, now)
         if new_path is None:
-            self.tables.set_comm(name, link_ok=False)
-            self._event(now, "reroute_failed", wt=name, cause=cause, t_loss=t_loss, path=active.path)
-            return []
+            return self._no_path(name, cause, now, t_loss)
         wid = wire.turbine_id(self.tables.t1[name].cluster, self.tables.t1[name].number)
         actions = self._install(name, active.sdc, new_path, wid, now)
         self.tables.set_comm(name, link_ok=True)
@@ -419,37 +444,97 @@ class Controller:
                     avoided="known down links" if known_bad else "current path (link-disjoint)")
         return actions
 
-    # ------------------------------------------------------------------ SDC failover
-    def _check_sdcs(self, now: float, silent: set[str]) -> list:
-        """Decide which silent SDCs (no heartbeat for ``sdc_dead_s``) are dead, and fail over."""
+    # ------------------------------------------------------------------ partitions
+    def _no_path(self, name: str, cause: str, now: float, t_loss: float | None) -> list:
+        """No path to the turbine's SDC: reported once, T3 x/0; the turbine falls back on its own
+        (as without DR) and nothing is retried until the topology changes (:meth:`_heal`)."""
+        if name not in self.partitioned:
+            self.partitioned[name] = t_loss if t_loss is not None else now
+            self.tables.set_comm(name, comm_on=False, link_ok=False)
+            self.counters["no_path"] += 1
+            self._event(now, "no_path", wt=name, cause=cause, t_loss=t_loss, t_detect=now,
+                        down_links=sorted(sorted(k) for k in self.down_links))
+        return []
+
+    def _heal(self, now: float) -> list:
+        """A link came up: give every partitioned turbine a path if one exists now."""
         actions: list = []
-        if now - self.t_flow_change < SETTLE_S:
-            # the switches just received flow changes from us; Open vSwitch's userspace datapath
-            # delays their packet-ins (heartbeats, AK) for tens of ms while it revalidates
+        for name, t_loss in sorted(self.partitioned.items()):
+            active = self.paths.get(name)
+            if active is None or name not in self.tables.t1:
+                self.partitioned.pop(name)
+                continue
+            path = self._path_to(active.sdc, name)
+            if path is None:
+                continue
+            self.partitioned.pop(name)
+            wid = wire.turbine_id(self.tables.t1[name].cluster, self.tables.t1[name].number)
+            actions += self._install(name, active.sdc, path, wid, now)
+            self.tables.set_comm(name, link_ok=True)
+            self.dr.start(name, now)
+            self.counters["path_restored"] += 1
+            self._event(now, "path_restored", wt=name, t_loss=t_loss, t_detect=now, new_path=path)
+        return actions
+
+    # ------------------------------------------------------------------ SDC failover
+    def _stalled(self, now: float) -> bool:
+        """Nothing at all has reached the controller for a while: its own stall or the switches'
+        (a silence then says nothing about any one sender)."""
+        return STALL_S < now - self.t_last_packet_in < MAX_STALL_S
+
+    def _check_sdcs(self, now: float) -> list:
+        """Decide which silent SDCs are dead (:mod:`sdn_app.liveness` plus the turbines' own
+        reports as corroboration), and fail over."""
+        actions: list = []
+        known = self.liveness.known()
+        silent = {sdc for sdc in known if self.liveness.silent(sdc, now, self.t_resumed)}
+        self.suspects &= silent
+        if silent and self._stalled(now):
+            self.counters["sdc_check_stalled"] += 1
             return actions
-        if len(self.sdc_heartbeat) > 1 and len(silent) == len(self.sdc_heartbeat):
+        if len(known) > 1 and silent == set(known):
             # every SDC silent at once: far likelier our own stall (a busy event loop, a switch busy
             # revalidating) than all SDCs dying together; decide nothing until heartbeats are seen
             self.counters["sdc_check_all_stale"] += 1
             return actions
         for sdc in sorted(silent - self.sdc_dead):
-            t_last = self.sdc_heartbeat[sdc]
-            served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
-            lasting = [self.dr.loss_since(n, now) for n in served]
-            if served and not any(t is not None and now - t >= CORROBORATE_S for t in lasting):
-                # its turbines still get control packets: the heartbeats are late (a switch busy
-                # installing flows delays its packet-ins), the SDC is not dead
-                self.counters["sdc_silent_turbines_served"] += 1
+            t_last = self.liveness.tracks[sdc].t_last
+            if now - self.t_flow_change < SETTLE_S and t_last >= self.t_flow_change:
+                # the switches just received flow changes from us; Open vSwitch's userspace datapath
+                # delays their packet-ins (heartbeats, AK) for tens of ms while it revalidates
+                self.counters["sdc_check_settling"] += 1
                 continue
-            self.sdc_dead.add(sdc)
+            served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
+            if not self._death_corroborated(sdc, served, now):
+                self.counters["sdc_suspect_not_corroborated"] += 1
+                if sdc not in self.suspects:
+                    self.suspects.add(sdc)
+                    self._event(now, "sdc_suspect", sdc=sdc, silence_ms=round((now - t_last) * 1e3, 1),
+                                phi=round(self.liveness.phi(sdc, now, self.t_resumed), 1), turbines=served)
+                continue
+            self.liveness.declare_dead(sdc)
+            self.suspects.discard(sdc)
             self._event(now, "sdc_dead", sdc=sdc, t_last_heartbeat=t_last, turbines=served)
             if sdc == self.active_sdc:
                 actions += self._failover(sdc, served, now, t_last)
         return actions
 
+    def _death_corroborated(self, sdc: str, served: list[str], now: float) -> bool:
+        """A silent SDC is dead when every turbine it serves has itself reported that its control
+        packets stopped (AK = 0 with a loss of ``CORROBORATE_S``; a missing AK is no report), or
+        has sent no AK at all since the silence began while other packets arrive; one serving no
+        turbine, after a longer silence."""
+        silence = self.liveness.silence(sdc, now, self.t_resumed)
+        if not served:
+            return silence >= IDLE_SDC_DEAD_FACTOR * self.config.sdc_dead_s
+        return all(self.dr.reported_loss(n) >= CORROBORATE_S
+                   or self.dr.loss_since(n, now, resumed=self.t_resumed) is not None
+                   and self.dr.tracks[n].t_loss is None for n in served)
+
     def _failover(self, dead: str, served: list[str], now: float, t_last: float) -> list:
         backup = self.config.backup_sdc
-        if not self.config.failover or backup is None or backup in self.sdc_dead or backup not in self.sdc_heartbeat:
+        if (not self.config.failover or backup is None or backup in self.sdc_dead
+                or backup not in self.liveness.tracks):
             self._event(now, "failover_unavailable", sdc=dead, turbines=served,
                         reason="failover off" if not self.config.failover else "no live backup SDC")
             return []
@@ -496,15 +581,27 @@ class Controller:
         if handler is None:
             self.counters["drop_unexpected_type"] += 1
             return []
-        return handler(msg, ip.src, eth.src, now)
+        if now - self.t_last_packet_in > STALL_S:
+            self.t_resumed = now
+        self.t_last_packet_in = max(self.t_last_packet_in, now)
+        try:
+            return handler(msg, ip.src, eth.src, now, (dpid, in_port))
+        except (ValueError, KeyError, TypeError) as exc:  # one bad message never stops the app
+            self.counters["drop_bad_value"] += 1
+            self._event(now, "drop_bad_value", msg_type=msg.type.name, error=str(exc)[:200])
+            return []
 
-    def _on_request(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
+    def _on_request(self, msg: wire.Message, src_ip: str, src_mac: str, now: float, where=None) -> list:
         owfcc = self._host(self.config.owfcc)
-        if src_ip != owfcc.ip or src_mac != owfcc.mac:
+        if src_ip != owfcc.ip or src_mac != owfcc.mac or self._wrong_ingress(self.config.owfcc, where):
             self.counters["drop_request_not_owfcc"] += 1
             return []
         self.counters["requests"] += 1
         cmd, wid, req_id = msg["cmd"], msg["wt"], msg["req_id"]
+        if not wire.is_turbine_id(wid):
+            self.counters["drop_unknown_turbine"] += 1
+            self._event(now, "request_refused", wt=wid, cmd=wire.Command(cmd).name, reason="not a turbine id")
+            return self._reply(now, req_id, wire.Status.UNKNOWN_TURBINE, wid, cmd)
         name = wire.turbine_name(wid)
         if self.tables.lookup(name) is None:
             self._event(now, "request_refused", wt=name, cmd=wire.Command(cmd).name, reason="unknown turbine")
@@ -538,7 +635,9 @@ class Controller:
         self.tables.set_mode(name, True)
         self.tables.set_comm(name, comm_on=True, link_ok=True)
         self.dr.start(name, now, armed=False)
+        self.partitioned.pop(name, None)
         params = {k: msg[k] for k in PARAM_KEYS}
+        self.paths[name].params = params
         self._event(now, "visc_on", wt=name, sdc=sdc, path=path, flows=self.counters["flow_mods"])
         actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params)
         actions += self._command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_START, wid)
@@ -554,21 +653,26 @@ class Controller:
         actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.STOP_INSTANCE, wid)
         actions += self._remove_path(name)
         self.dr.stop(name)
+        self.partitioned.pop(name, None)
         self.tables.set_mode(name, False)
         self.tables.set_comm(name, comm_on=False)
         self._event(now, "visc_off", wt=name)
         return actions + self._reply(now, req_id, wire.Status.OK, wid, cmd)
 
-    def _on_ak(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
-        name = wire.turbine_name(msg["wt"])
-        row = self.tables.lookup(name)
+    def _on_ak(self, msg: wire.Message, src_ip: str, src_mac: str, now: float, where=None) -> list:
+        row = self.tables.lookup(wire.turbine_name(msg["wt"])) if wire.is_turbine_id(msg["wt"]) else None
         if row is None or row.ip != src_ip or row.mac != src_mac:
             self.counters["drop_ak_unregistered"] += 1
+            return []
+        name = row.name
+        if self._wrong_ingress(name, where):
+            self.counters["drop_ak_wrong_port"] += 1
             return []
         if name not in self.paths:
             self.counters["ak_not_in_visc"] += 1
             return []
-        fresh = self.dr.on_ak(name, msg["seq"], msg["ak"], msg["ctrl_rx"], msg["ctrl_age_ms"] / 1e3, now)
+        sent = msg.header.time if msg.header is not None else None
+        fresh = self.dr.on_ak(name, msg["seq"], msg["ak"], msg["ctrl_rx"], msg["ctrl_age_ms"] / 1e3, now, sent=sent)
         if not fresh:
             self.counters["ak_duplicate"] += 1
             return []
@@ -576,26 +680,33 @@ class Controller:
         self.tables.set_comm(name, comm_on=bool(msg["ak"]))
         return []
 
-    def _on_reply(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
+    def _on_reply(self, msg: wire.Message, src_ip: str, src_mac: str, now: float, where=None) -> list:
+        if self._sdc_by_addr.get((src_ip, src_mac)) is None or not wire.is_turbine_id(msg["wt"]):
+            self.counters["drop_reply_unexpected"] += 1
+            return []
         self.counters["sdc_replies"] += 1
         self._event(now, "sdc_reply", src=src_ip, wt=wire.turbine_name(msg["wt"]),
                     cmd=wire.Command(msg["cmd"]).name, status=wire.Status(msg["status"]).name)
         return []
 
-    def _on_heartbeat(self, msg: wire.Message, src_ip: str, src_mac: str, now: float) -> list:
+    def _on_heartbeat(self, msg: wire.Message, src_ip: str, src_mac: str, now: float, where=None) -> list:
         sdc = self._sdc_by_addr.get((src_ip, src_mac))
-        if sdc is None:
+        if sdc is None or self._wrong_ingress(sdc, where):
             self.counters["drop_heartbeat_unknown"] += 1
             return []
         self.counters["heartbeats"] += 1
-        sent = msg.header.sec + msg.header.nsec * 1e-9 if msg.header is not None else now
-        # liveness from the send time (same clock on this testbed), so a backlog in the app's own
-        # event loop is not mistaken for a dead SDC; never later than the receive time
-        self.sdc_heartbeat[sdc] = max(self.sdc_heartbeat.get(sdc, 0.0), min(sent, now))
-        if sdc in self.sdc_dead:
-            self.sdc_dead.discard(sdc)
-            self._event(now, "sdc_alive", sdc=sdc)
-        return []
+        actions: list = []
+        for change in self.liveness.on_heartbeat(sdc, msg["seq"], now, self.t_resumed):
+            if change == "alive":
+                self._event(now, "sdc_alive", sdc=sdc)
+            elif change == "restarted":  # the process came back without its instances: re-start them
+                served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
+                self._event(now, "sdc_restarted", sdc=sdc, turbines=served)
+                for name in served:
+                    row = self.tables.t1[name]
+                    actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE,
+                                             wire.turbine_id(row.cluster, row.number), self.paths[name].params, sdc=sdc)
+        return actions
 
     # ------------------------------------------------------------------ introspection
     def snapshot(self) -> dict:
@@ -607,6 +718,8 @@ class Controller:
             "down_links": sorted(sorted(k) for k in self.down_links),
             "active_sdc": self.active_sdc,
             "dead_sdcs": sorted(self.sdc_dead),
+            "suspected_sdcs": sorted(self.suspects),
+            "partitioned": sorted(self.partitioned),
             "connected": sorted(self.connected),
             "acks": {n: {"ak": t.ak, "ctrl_rx": t.ctrl_rx, "dr_confirmed": t.confirmed}
                      for n, t in self.dr.tracks.items()},

@@ -9,7 +9,7 @@ from sdn_app import flows as fl
 from sdn_app.logic import Controller
 from sdn_app.paths import link_key
 from sdvisc import wire
-from tests.unit.test_sdn_logic import frame, make_config, request
+from tests.unit.test_sdn_logic import frame, ingress, make_config, request
 from topologies import topos
 from topologies.base import describe
 
@@ -80,7 +80,7 @@ def test_every_protected_link_failure_is_bypassed_in_the_data_plane(topo, params
 
     ctl = Controller(AppConfig.model_validate({"topology": desc, "backup_sdc": None, "fast_failover": True}), 0.0)
     owfcc = ctl.config.topology.hosts["owfcc"].model_dump()
-    actions = ctl.packet_in(1, 1, frame(owfcc, request(wire.Command.VISC_ON, wt=wt)), now=1.0)
+    actions = ctl.packet_in(*ingress(ctl, "owfcc"), frame(owfcc, request(wire.Command.VISC_ON, wt=wt)), now=1.0)
     flows, groups = switch_tables(actions)
     assert groups, "fast-failover groups installed"
     path = ctl.paths[wt].path
@@ -97,9 +97,9 @@ def test_every_protected_link_failure_is_bypassed_in_the_data_plane(topo, params
 def test_groups_are_deleted_with_the_path():
     ctl = Controller(make_config(backup_sdc=None, fast_failover=True), 0.0)
     owfcc = ctl.config.topology.hosts["owfcc"].model_dump()
-    on = ctl.packet_in(1, 1, frame(owfcc, request(wire.Command.VISC_ON)), now=1.0)
+    on = ctl.packet_in(*ingress(ctl, "owfcc"), frame(owfcc, request(wire.Command.VISC_ON)), now=1.0)
     added = {(a.dpid, a.group_id) for a in on if isinstance(a, fl.GroupAdd)}
-    off = ctl.packet_in(1, 1, frame(owfcc, request(wire.Command.VISC_OFF, req_id=9)), now=2.0)
+    off = ctl.packet_in(*ingress(ctl, "owfcc"), frame(owfcc, request(wire.Command.VISC_OFF, req_id=9)), now=2.0)
     assert {(a.dpid, a.group_id) for a in off if isinstance(a, fl.GroupDelete)} == added
 
 
@@ -121,7 +121,7 @@ def test_group_messages_serialise():
 def test_l2_uplink_failure_teaches_the_l2_switch_the_other_uplink():
     ctl = Controller(make_config(backup_sdc=None, fast_failover=True), 0.0)
     owfcc = ctl.config.topology.hosts["owfcc"].model_dump()
-    ctl.packet_in(1, 1, frame(owfcc, request(wire.Command.VISC_ON)), now=1.0)
+    ctl.packet_in(*ingress(ctl, "owfcc"), frame(owfcc, request(wire.Command.VISC_ON)), now=1.0)
     assert ctl.paths["wt1_1"].path == ["sdc1", "s1", "s3", "l2", "wt1_1"]
     s3_l2 = ctl.graph.edges["s3", "l2"]["ports"]["s3"]
     actions = ctl.port_status(ctl.dpids["s3"], s3_l2, up=False, now=2.0)

@@ -34,6 +34,12 @@ def frame(src_host: dict, payload: bytes, dst_ip=CONTROLLER_VIP, dst_port=wire.P
     return bytes(pkt.data)
 
 
+def ingress(ctl, host: str) -> tuple[int, int]:
+    """(dpid, port) where ``host``'s packets reach the controller (its registered OpenFlow port)."""
+    info = ctl.config.topology.hosts[host]
+    return ctl.dpids[info.switch], info.port
+
+
 def request(cmd: wire.Command, wt: str = "wt1_1", req_id: int = 7, **params) -> bytes:
     values = {"req_id": req_id, "cmd": int(cmd), "wt": wire.turbine_id(*wire.parse_turbine(wt)), "sdc_ip": 0,
               "mask": 0, "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0, **params}

@@ -9,23 +9,41 @@ from sdn_app.dr import DrMonitor
 from sdn_app.logic import Controller
 from sdn_app.paths import path_links
 from sdvisc import wire
-from tests.unit.test_sdn_logic import decode_out, frame, is_learn, make_config, request
+from tests.unit.test_sdn_logic import decode_out, frame, ingress, is_learn, make_config, request
 
 HOLD = 0.040
 
 
-def test_dr_not_before_hold_and_right_after():
+def test_dr_confirmed_by_the_turbines_report_that_the_loss_lasted_the_hold():
     m = DrMonitor(hold_s=HOLD, ak_timeout_s=0.030)
     m.start("wt1_1", now=0.0)
     assert m.on_ak("wt1_1", 1, 1, 10, 0.0005, now=1.000)
     # the AK of 1.020 reports the last control packet 15 ms ago: the loss began at 1.005
     assert m.on_ak("wt1_1", 2, 0, 12, 0.015, now=1.020)
-    assert m.due(["wt1_1"], now=1.005 + HOLD - 1e-6) == []
-    assert m.due(["wt1_1"], now=1.005 + HOLD + 1e-6) == [("wt1_1", pytest.approx(1.005))]
+    assert m.on_ak("wt1_1", 3, 0, 12, 0.025, now=1.030)
+    assert m.on_ak("wt1_1", 4, 0, 12, 0.035, now=1.040)
+    assert m.due(["wt1_1"], now=1.049) == []  # 44 ms since the loss began, but no report says 40 ms yet
+    assert m.on_ak("wt1_1", 5, 0, 12, 0.045, now=1.050)  # the turbine: no control packet for 45 ms
+    assert m.due(["wt1_1"], now=1.050) == [("wt1_1", pytest.approx(1.005))]
     assert m.due(["wt1_1"], now=1.100) == []  # once per loss
-    assert m.on_ak("wt1_1", 3, 1, 13, 0.0003, now=1.110)  # packets flow again: rearmed
-    assert m.on_ak("wt1_1", 4, 0, 13, 0.012, now=1.130)
-    assert m.due(["wt1_1"], now=1.118 + HOLD + 1e-6) == [("wt1_1", pytest.approx(1.118))]
+    assert m.on_ak("wt1_1", 6, 1, 13, 0.0003, now=1.110)  # packets flow again: rearmed
+    assert m.on_ak("wt1_1", 7, 0, 13, 0.012, now=1.130)
+    assert m.on_ak("wt1_1", 8, 0, 13, 0.040, now=1.158)
+    assert m.due(["wt1_1"], now=1.158) == [("wt1_1", pytest.approx(1.118))]
+
+
+def test_a_delayed_ak_is_not_a_dr():
+    """A short gap (AK = 0 for 15 ms), then packets again: the AK = 1 that says so is delayed by
+    60 ms in a busy switch. The turbine never reported a 40 ms loss, so there is no DR, whichever
+    order the reports arrive in; the loss start comes from the send time, not the arrival."""
+    m = DrMonitor(hold_s=HOLD, ak_timeout_s=0.030)
+    m.start("wt1_1", now=0.0)
+    m.on_ak("wt1_1", 1, 1, 10, 0.0, now=1.000, sent=1.000)
+    m.on_ak("wt1_1", 2, 0, 10, 0.015, now=1.021, sent=1.015)
+    for now in (1.030, 1.045, 1.060, 1.075):
+        assert m.due(["wt1_1"], now=now, stalled=True) == []  # no packet-in from anyone: our stall
+    m.on_ak("wt1_1", 3, 1, 20, 0.0005, now=1.080, sent=1.020)
+    assert m.loss_since("wt1_1", now=1.081) is None and m.due(["wt1_1"], now=1.081) == []
 
 
 def test_missing_ak_counts_as_zero():
@@ -58,7 +76,7 @@ def heartbeat(ctl, sdc, seq, now):
     payload = wire.encode(wire.MsgType.HEARTBEAT, {"sdc_id": int(sdc[-1]), "seq": seq, "n_instances": 1,
                                                    "t_wall": now % 1e4},
                           header=wire.Header(seq, int(now), int((now % 1) * 1e9)))
-    return ctl.packet_in(1, 1, frame(h, payload), now)
+    return ctl.packet_in(*ingress(ctl, sdc), frame(h, payload), now)
 
 
 def visc_on(ctl, now=1.0):
@@ -72,7 +90,9 @@ def test_dr_reroutes_on_a_link_disjoint_path_after_the_hold():
     old = ctl.paths["wt1_1"].path
     ak(ctl, 1, 1, 0.0, 1.5)
     ak(ctl, 2, 0, 0.012, 1.52)  # loss since 1.508 (no port status seen: silent failure)
-    assert ctl.tick(1.508 + HOLD - 0.001) == []
+    ak(ctl, 3, 0, 0.032, 1.54)
+    assert ctl.tick(1.548) == []
+    ak(ctl, 4, 0, 0.041, 1.549)  # the turbine reports a loss as long as the hold
     actions = ctl.tick(1.508 + HOLD + 0.001)
     deletes = [a for a in actions if isinstance(a, fl.FlowDelete)]
     adds = [a for a in actions if isinstance(a, fl.FlowAdd)]
@@ -92,9 +112,11 @@ def test_dr_avoids_only_the_known_down_link_and_port_status_can_act_at_once():
     s1_s3 = next(p for (sw, p), key in ctl.port_links.items() if sw == "s1" and "s3" in key)
     assert ctl.port_status(1, s1_s3, up=False, now=1.5) == []  # paper: wait for DR
     assert str(ctl.tables.t3["wt1_1"]) == "1/1"  # another link exists
-    ak(ctl, 1, 0, 0.010, 1.52)  # loss since 1.51
-    assert ctl.tick(1.51 + HOLD - 0.001) == []
-    assert ctl.tick(1.51 + HOLD + 0.001)
+    ak(ctl, 1, 0, 0.010, 1.52)  # loss since 1.51; then the turbine's AKs stop too
+    for k, t in enumerate((1.525, 1.535, 1.545)):  # the controller still receives packets: not its own stall
+        heartbeat(ctl, "sdc1", 1 + k, t)
+    assert ctl.tick(1.549) == []
+    assert ctl.tick(1.551)  # no AK for 30 ms and the loss has lasted 40 ms
     assert frozenset(("s1", "s3")) not in path_links(ctl.paths["wt1_1"].path)
 
     fast = Controller(make_config(backup_sdc=None, reroute_on_port_status=True), now=0.0)
@@ -126,11 +148,14 @@ def test_dead_primary_fails_over_with_address_rewrite(failover):
     heartbeat(ctl, "sdc1", 1, 0.99)
     heartbeat(ctl, "sdc2", 1, 0.99)
     visc_on(ctl, 1.0)
-    heartbeat(ctl, "sdc1", 2, 1.50)  # last heartbeat of the primary
-    for i, t in enumerate((1.52, 1.54, 1.56)):
-        heartbeat(ctl, "sdc2", 2 + i, t)
-    ak(ctl, 1, 1, 0.001, 1.30)
-    ak(ctl, 2, 0, 0.04, 1.54)  # wt1_1 has had no control packet since 1.50
+    for k in range(1, 51):  # both SDCs beat every 10 ms up to 1.50, then the primary stops
+        heartbeat(ctl, "sdc1", 1 + k, 1.0 + 0.01 * k)
+        heartbeat(ctl, "sdc2", 1 + k, 1.0 + 0.01 * k)
+    ak(ctl, 1, 1, 0.001, 1.50)
+    heartbeat(ctl, "sdc2", 52, 1.51)
+    ak(ctl, 2, 0, 0.012, 1.512)
+    heartbeat(ctl, "sdc2", 53, 1.52)
+    ak(ctl, 3, 0, 0.025, 1.525)  # wt1_1 has had no control packet since 1.50
     assert ctl.tick(1.529) == []
     actions = ctl.tick(1.531)
     events = [e["type"] for e in ctl.take_events()]
@@ -159,7 +184,8 @@ def test_fresh_start_is_not_mistaken_for_a_failure():
     assert m.due(["wt1_1"], now=1.2) == []
     m.on_ak("wt1_1", 2, 1, 5, 0.001, now=1.03)  # communication established: armed
     m.on_ak("wt1_1", 3, 0, 9, 0.012, now=1.10)
-    assert [w for w, _ in m.due(["wt1_1"], now=1.088 + HOLD + 1e-6)] == ["wt1_1"]
+    assert m.due(["wt1_1"], now=1.129) == []  # reported 12 ms, AKs still expected
+    assert [w for w, _ in m.due(["wt1_1"], now=1.131)] == ["wt1_1"]  # then no AK for 30 ms: AK = 0 goes on
     # a turbine whose SDC never answers is reported once the start-up grace is over
     m.start("wt1_2", now=2.0, armed=False)
     m.on_ak("wt1_2", 1, 0, 0, 1e3, now=2.01)
@@ -177,9 +203,14 @@ def test_all_sdcs_silent_at_once_is_not_a_failover():
     assert ctl.tick(1.40) == []  # both stale: our own stall, not two deaths
     assert ctl.active_sdc == "sdc1" and not ctl.sdc_dead
     ak(ctl, 1, 1, 0.001, 1.32)
-    ak(ctl, 2, 0, 0.02, 1.41)  # and wt1_1 has lost its control packets
+    ak(ctl, 2, 0, 0.02, 1.41)  # packets again after a stall, and wt1_1 has lost its control packets
     heartbeat(ctl, "sdc2", 3, 1.41)
-    assert ctl.tick(1.42)  # now only sdc1 is silent: fail over
+    # sdc1's heartbeats may still be queued behind the stall: its silence counts from its end
+    assert ctl.tick(1.42) == [] and ctl.active_sdc == "sdc1"
+    for k, t in enumerate((1.42, 1.43, 1.44)):
+        heartbeat(ctl, "sdc2", 4 + k, t)
+        ak(ctl, 3 + k, 0, t - 1.39, t)
+    assert ctl.tick(1.441)  # sdc1 silent 31 ms after the stall, sdc2 alive: fail over
     assert ctl.active_sdc == "sdc2"
 
 
@@ -189,11 +220,19 @@ def test_late_heartbeats_while_turbines_are_served_are_not_a_death():
     heartbeat(ctl, "sdc2", 1, 0.99)
     visc_on(ctl, 1.0)
     assert ctl.tick(1.1) == []  # settling after our own flow changes: no decision at all
-    heartbeat(ctl, "sdc1", 2, 1.30)
-    ak(ctl, 1, 1, 0.001, 1.32)
-    heartbeat(ctl, "sdc2", 2, 1.35)
-    ak(ctl, 2, 1, 0.001, 1.36)  # wt1_1 is served fine although sdc1's heartbeats are late
+    for k in range(11):  # 1.20 ... 1.30: both SDCs beat, the turbine is served
+        t = round(1.20 + 0.01 * k, 3)
+        heartbeat(ctl, "sdc1", 2 + k, t)
+        heartbeat(ctl, "sdc2", 2 + k, t)
+        ak(ctl, 1 + k, 1, 0.001, t)
+    for k in range(1, 7):  # 1.31 ... 1.36: sdc1's heartbeats are late, wt1_1 is still served
+        t = round(1.30 + 0.01 * k, 3)
+        heartbeat(ctl, "sdc2", 12 + k, t)
+        ak(ctl, 11 + k, 1, 0.001, t)
     assert ctl.tick(1.365) == [] and not ctl.sdc_dead
-    ak(ctl, 3, 0, 0.015, 1.38)  # now wt1_1 has lost its control packets too: sdc1 is dead
-    heartbeat(ctl, "sdc2", 3, 1.38)
-    assert ctl.tick(1.385) and ctl.active_sdc == "sdc2"
+    ak(ctl, 18, 0, 0.015, 1.37)  # now wt1_1 reports a loss too, but only of 15 ms: not yet evidence
+    heartbeat(ctl, "sdc2", 19, 1.37)
+    assert ctl.tick(1.372) == [] and not ctl.sdc_dead
+    ak(ctl, 19, 0, 0.025, 1.38)  # 25 ms without control packets, sdc1 silent for 80 ms: dead
+    heartbeat(ctl, "sdc2", 20, 1.38)
+    assert ctl.tick(1.381) and ctl.active_sdc == "sdc2"

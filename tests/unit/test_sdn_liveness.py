@@ -1,0 +1,197 @@
+"""Liveness that is a detector, partitions reported once and healed, and one bad message never
+stopping the app: pure SDN logic with an injected clock."""
+
+from __future__ import annotations
+
+import random
+
+import pytest
+
+from sdn_app import flows as fl
+from sdn_app.config import AppConfig
+from sdn_app.liveness import ALIVE_AFTER, SdcLiveness
+from sdn_app.logic import Controller
+from sdvisc import wire
+from tests.unit.test_sdn_logic import frame, ingress, make_config, request
+from topologies import topos
+from topologies.base import describe
+
+TICK = 0.002
+
+
+# ---------------------------------------------------------------------------- the detector alone
+def test_steady_heartbeats_make_a_quick_detector():
+    live = SdcLiveness(period_s=0.010, sdc_dead_s=0.030)
+    for k in range(50):
+        live.on_heartbeat("sdc1", k + 1, 1.0 + 0.010 * k)
+    last = 1.0 + 0.49
+    assert not live.suspected("sdc1", last + 0.012) and live.suspected("sdc1", last + 0.020)
+    assert not live.silent("sdc1", last + 0.029) and live.silent("sdc1", last + 0.031)
+
+
+def test_jittery_heartbeats_widen_the_timeout_instead_of_crying_wolf():
+    rng = random.Random(1)
+    live = SdcLiveness(period_s=0.010, sdc_dead_s=0.030)
+    t, seq = 1.0, 0
+    for _ in range(200):  # arrivals delayed by a busy switch: bursts and gaps of up to ~40 ms
+        t += rng.choice([0.001, 0.002, 0.010, 0.010, 0.010, 0.020, 0.035, 0.040])
+        seq += 1
+        live.on_heartbeat("sdc1", seq, t)
+    assert not live.silent("sdc1", t + 0.045)  # a gap this network shows now and then
+    assert live.silent("sdc1", t + 0.150)  # many heartbeats missing: a death candidate
+
+
+def test_a_dead_sdc_comes_back_only_after_several_heartbeats_and_a_restart_is_noticed():
+    live = SdcLiveness()
+    for k in range(1, 20):
+        live.on_heartbeat("sdc1", k, 0.01 * k)
+    live.declare_dead("sdc1")
+    changes = [live.on_heartbeat("sdc1", 19 + k, 1.0 + 0.01 * k) for k in range(1, ALIVE_AFTER + 1)]
+    assert changes[:-1] == [[]] * (ALIVE_AFTER - 1) and changes[-1] == ["alive"] and "sdc1" not in live.dead
+    assert live.on_heartbeat("sdc1", 1, 2.0) == ["restarted"]
+
+
+# ---------------------------------------------------------------------------- the controller
+def _hb(ctl, sdc, seq, now):
+    h = ctl.config.topology.hosts[sdc].model_dump()
+    payload = wire.encode(wire.MsgType.HEARTBEAT, {"sdc_id": int(sdc[-1]), "seq": seq, "n_instances": 1,
+                                                   "t_wall": 0.0}, header=wire.Header(seq, 0, 0))
+    return ctl.packet_in(*ingress(ctl, sdc), frame(h, payload), now)
+
+
+def _ak(ctl, wt, seq, value, age_s, now, sent=None, where=None):
+    h = ctl.config.topology.hosts[wt].model_dump()
+    sent = now if sent is None else sent
+    payload = wire.encode(wire.MsgType.AK, {"wt": wire.turbine_id(*wire.parse_turbine(wt)), "seq": seq, "ak": value,
+                                            "ctrl_rx": seq, "ctrl_age_ms": age_s * 1e3},
+                          header=wire.Header(seq, int(sent), int((sent % 1) * 1e9)))
+    return ctl.packet_in(*(where or (3, 1)), frame(h, payload), now)
+
+
+def _visc_on(ctl, wt="wt1_1", now=1.0):
+    o = ctl.config.topology.hosts["owfcc"].model_dump()
+    return ctl.packet_in(*ingress(ctl, "owfcc"), frame(o, request(wire.Command.VISC_ON, wt=wt)), now)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_no_false_death_or_dr_when_the_network_only_delays(seed):
+    """Fault-free, 20 s: every packet-in (heartbeats of both SDCs, the turbine's AKs) is delayed by
+    a queue that now and then stalls for up to 60 ms, and control packets reach the turbine with
+    gaps of up to 30 ms (so it reports AK = 0 at times). Nothing failed: no SDC may be declared
+    dead, no failover, no DR."""
+    rng = random.Random(seed)
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    arrivals = []  # (arrival time, kind, ...)
+    stall_until = 0.0
+    t = 0.5
+    ak_seq, last_ctrl, next_ctrl = 0, 1.1, 1.1
+    while t < 20.0:
+        if rng.random() < 0.01:  # a stall of the switches' main thread: everything queued behind it
+            stall_until = max(stall_until, t + rng.uniform(0.005, 0.060))
+        deliver = max(t, stall_until) + rng.uniform(0.0003, 0.003)
+        k = int(round(t / 0.010))
+        arrivals.append((deliver, "hb", "sdc1", k))
+        arrivals.append((deliver + rng.uniform(0, 0.002), "hb", "sdc2", k))
+        if t > 1.1:  # the turbine's control packets: every Ts, with a gap of 10-30 ms now and then
+            while next_ctrl <= t:
+                last_ctrl = next_ctrl
+                next_ctrl += rng.uniform(0.010, 0.030) if rng.random() < 0.004 else 0.00067
+            ak_seq += 1
+            age = t - last_ctrl
+            arrivals.append((deliver, "ak", int(age <= 0.010), age, t, ak_seq))
+        t += 0.010
+    arrivals.sort(key=lambda a: a[0])
+    now, i = 0.5, 0
+    events = []
+    while now < 20.1:
+        while i < len(arrivals) and arrivals[i][0] <= now:
+            a = arrivals[i]
+            if a[1] == "hb":
+                _hb(ctl, a[2], a[3] + 1, a[0])
+            else:
+                _ak(ctl, "wt1_1", a[5], a[2], a[3], a[0], sent=a[4])
+            i += 1
+        if abs(now - 1.0) < TICK / 2:
+            _visc_on(ctl, now=now)
+        ctl.tick(now)
+        events += [e["type"] for e in ctl.take_events()]
+        now = round(now + TICK, 6)
+    for kind in ("sdc_dead", "sdc_failover", "dr", "dr_not_acted", "no_path"):
+        assert kind not in events, (kind, events.count(kind))
+
+
+def test_a_killed_sdc_is_still_detected_and_failed_over_quickly():
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    for k in range(1, 100):
+        _hb(ctl, "sdc1", k, 0.01 * k)
+        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
+    _visc_on(ctl, now=0.5)
+    t_kill = 1.0  # sdc1's last heartbeat was at 0.99; the turbine's last control packet at 1.0
+    detected = None
+    for step in range(1, 100):
+        now = round(t_kill + step * TICK, 6)
+        if step % 5 == 0:
+            _hb(ctl, "sdc2", 100 + step, now)
+            _ak(ctl, "wt1_1", step, int(now - t_kill < 0.010), now - t_kill, now)
+        ctl.tick(now)
+        if any(e["type"] == "sdc_failover" for e in ctl.take_events()):
+            detected = now
+            break
+    assert detected is not None and detected - t_kill <= 0.045 and ctl.active_sdc == "sdc2"
+
+
+def test_a_partition_is_reported_once_and_healed_when_a_link_returns():
+    ctl = Controller(make_config(backup_sdc=None), now=0.0)
+    _visc_on(ctl, now=1.0)
+    s1 = ctl.dpids["s1"]
+    switches = set(ctl.dpids)
+    cut = sorted(p for (sw, p), key in ctl.port_links.items() if sw == "s1" and key <= switches)
+    for port in cut:  # every way from the SDC's switch to the turbine's side
+        ctl.port_status(s1, port, up=False, now=1.5)
+    events = []
+    for k in range(500):  # 1 s of ticks, the turbine reporting its loss all along
+        now = round(1.5 + k * TICK, 6)
+        if k % 5 == 0:
+            _ak(ctl, "wt1_1", k + 1, 0, now - 1.5, now)
+            _hb(ctl, "sdc1", k + 1, now)
+        ctl.tick(now)
+        events += ctl.take_events()
+    kinds = [e["type"] for e in events]
+    assert kinds.count("no_path") == 1 and "reroute_failed" not in kinds
+    assert str(ctl.tables.t3["wt1_1"]).endswith("/0")
+    actions = ctl.port_status(s1, cut[0], up=True, now=2.6)
+    assert any(isinstance(a, fl.FlowAdd) for a in actions)
+    (restored,) = [e for e in ctl.take_events() if e["type"] == "path_restored"]
+    assert restored["wt"] == "wt1_1" and restored["t_loss"] == pytest.approx(1.5, abs=0.01)
+    assert str(ctl.tables.t3["wt1_1"]).endswith("/1") and not ctl.partitioned
+
+
+def test_bad_ids_are_dropped_and_answered_without_an_exception():
+    ctl = Controller(make_config(backup_sdc=None), now=0.0)
+    o = ctl.config.topology.hosts["owfcc"].model_dump()
+    bad = wire.encode(wire.MsgType.REQUEST, {"req_id": 1, "cmd": int(wire.Command.VISC_ON), "wt": 1, "sdc_ip": 0,
+                                             "mask": 0, "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0,
+                                             "supp": 0}, header=wire.Header(1, 0, 0))
+    out = ctl.packet_in(*ingress(ctl, "owfcc"), frame(o, bad), now=1.0)
+    assert len(out) == 1 and ctl.counters["drop_unknown_turbine"] == 1  # answered UNKNOWN_TURBINE
+    wt = ctl.config.topology.hosts["wt1_1"].model_dump()
+    for wid in (1, -2**31, 2**31 - 1, 0):
+        ak = wire.encode(wire.MsgType.AK, {"wt": wid, "seq": 1, "ak": 1, "ctrl_rx": 0, "ctrl_age_ms": 0.0},
+                         header=wire.Header(1, 0, 0))
+        assert ctl.packet_in(3, 1, frame(wt, ak), now=1.1) == []
+    sdc = ctl.config.topology.hosts["sdc1"].model_dump()
+    reply = wire.encode(wire.MsgType.REPLY, {"req_id": 1, "status": 0, "wt": 1, "cmd": 1, "detail": 0},
+                        header=wire.Header(1, 0, 0))
+    assert ctl.packet_in(*ingress(ctl, "sdc1"), frame(sdc, reply), now=1.2) == []
+    assert ctl.counters["drop_ak_unregistered"] == 4 and ctl.counters["drop_reply_unexpected"] == 1
+
+
+def test_ingress_port_check_where_the_turbine_is_on_an_openflow_port():
+    desc = describe(topos["farm"](clusters=5, turbines=10, layout="compact"))
+    ctl = Controller(AppConfig.model_validate({"topology": desc, "backup_sdc": None}), now=0.0)
+    _visc_on(ctl, now=1.0)
+    home = ingress(ctl, "wt1_1")
+    _ak(ctl, "wt1_1", 1, 0, 0.05, 1.1, where=(home[0], home[1] + 1))  # the victim's IP and MAC, another port
+    assert ctl.counters["drop_ak_wrong_port"] == 1 and ctl.dr.tracks["wt1_1"].seq == -1
+    _ak(ctl, "wt1_1", 2, 1, 0.0, 1.2, where=home)
+    assert ctl.dr.tracks["wt1_1"].seq == 2
