@@ -57,6 +57,7 @@ class Endpoint:
     ctrl_delays_ms: list = field(default_factory=list)
     ak_ones: int = 0
     last_ak_sent: int = -1
+    loss_reported: bool = False  # an AK has said that the current loss lasted report_loss_after_s
     ctrl_gaps: list = field(default_factory=list)
     last_v_ref: complex | None = None
     backup_seen: bool = False
@@ -116,6 +117,8 @@ class PlantService:
         self.vip = cfg["controller_vip"]
         self.ak_every = max(1, int(round(cfg.get("ak_period_s", 0.01) / self.step_s)))
         self.ak_window_s = float(cfg.get("ak_window_s", 0.01))
+        hold = cfg.get("report_loss_after_s")
+        self.report_loss_after_s = float(hold) if hold is not None else None
         self.out_dir = Path(cfg["out_dir"])
         self.model, indices = build_model(cfg, [t["name"] for t in cfg["turbines"]])
         self.endpoints: list[Endpoint] = []
@@ -191,6 +194,7 @@ class PlantService:
             ep.takeover_jump = abs(v_ref - ep.last_v_ref) if ep.last_v_ref is not None else None
         ep.last_v_ref = v_ref
         ep.last_ctrl_wall = now
+        ep.loss_reported = False
         t_sim = self.k * self.step_s
         ep.last_ctrl_rx_t = t_sim
         if ep.first_ctrl_rx_t is None:
@@ -258,7 +262,12 @@ class PlantService:
                 ep.counts.setdefault("meas_tx_error", 0)
                 ep.counts["meas_tx_error"] += 1
             ak_now = int(now - ep.last_ctrl_wall <= self.ak_window_s)
-            if send_ak or ak_now != ep.last_ak_sent:  # periodic, and at once on every change
+            # the moment a loss has lasted the SDN app's DR hold, the turbine says so at once (the
+            # app confirms DR on the turbine's own report, not on a guess from missing AKs)
+            loss_due = (self.report_loss_after_s is not None and not ep.loss_reported
+                        and now - ep.last_ctrl_wall >= self.report_loss_after_s)
+            if send_ak or ak_now != ep.last_ak_sent or loss_due:  # periodic, on every change, at the hold
+                ep.loss_reported = ep.loss_reported or loss_due
                 self._send_ak(ep, ak_now, now, sec, nsec)
 
     def _send_ak(self, ep: Endpoint, ak: int, now: float, sec: int, nsec: int) -> None:

@@ -29,6 +29,11 @@ class TestbedCLI(CLI):
               f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
         print(f"ViSC turbines: {', '.join(st.get('streaming', [])) or '-'}   active SDC: {tables.get('active_sdc')}")
         print(f"down links: {tables.get('down_links') or '-'}   openflow: {sdn.get('openflow', {})}")
+        if not self.testbed.controllers_running():
+            print("no SDN application is running: switches keep their flows, nothing reacts to failures")
+        restarts = {n: len(r) for n, r in self.testbed.restarts.items() if r}
+        if restarts:
+            print(f"services restarted after a crash: {restarts}")
 
     def do_tables(self, line):
         """tables [WT]: the SDN app's T1 (address), T2 (mode x/y) and T3 (communication x/y)."""

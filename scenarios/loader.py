@@ -166,8 +166,11 @@ class _Parts:
                 ends = {event.a, event.b}
                 if not ends <= switches | set(hosts) or (ends <= switches and frozenset(ends) not in links):
                     problems.append((("timeline", i), f"no link {event.a}-{event.b} in topology {topo.name}"))
-            if event.do == "kill" and event.host not in hosts:
+            if event.do in ("kill", "fuzz") and event.host not in hosts:
                 problems.append((("timeline", i, "host"), f"no host {event.host!r}"))
+            if event.do == "fuzz":
+                problems += [(("timeline", i, "targets", j), f"no host {name!r} (or 'controller')")
+                             for j, name in enumerate(event.targets) if name not in hosts and name != "controller"]
         for loc, name in self.turbines:
             if name not in hosts:
                 problems.append((loc, f"turbine {name!r} is not in topology {topo.name} ({topo.clusters}x{topo.turbines})"))

@@ -27,6 +27,8 @@ from sdvisc.netns import set_link_up
 from topologies import topos
 from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, TestbedSwitch, default_datapath, describe
 
+MAX_RESTARTS = 3  # per service and run
+RESTARTABLE = (".sdc", "owfcc.owfcc", "controller", "controller2")  # the plant is the run's clock: never
 SWITCH_CONNECT_TIMEOUT_S = 30.0
 START_MARGIN_S = 0.5
 READY_TIMEOUT_S = 120.0
@@ -73,6 +75,9 @@ class Run:
         self.exited_early: dict[str, int] = {}
         self.links_down: set[tuple[str, str]] = set()
         self.killed: set[str] = set()
+        self.specs: dict[str, tuple] = {}  # how each service was started (to restart it)
+        self.restarts: dict[str, list[dict]] = {}
+        self.no_controller: list[list[float | None]] = []  # [t_from, t_to or None]: no SDN app running
 
     # ------------------------------------------------------------------ set-up
     def _say(self, text: str) -> None:
@@ -84,8 +89,9 @@ class Run:
         path.write_text(json.dumps(data, indent=1))
         return path
 
-    def _popen(self, name: str, args: list[str], host=None, stdin=None) -> subprocess.Popen:
-        log = open(self.out / f"{name}.log", "w")  # noqa: SIM115 - owned by the process
+    def _popen(self, name: str, args: list[str], host=None, stdin=None, mode: str = "w") -> subprocess.Popen:
+        self.specs[name] = (args, host, stdin)
+        log = open(self.out / f"{name}.log", mode)  # noqa: SIM115 - owned by the process
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         if host is None:
             proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
@@ -218,7 +224,7 @@ class Run:
                      "model": sc.plant.model, "record": sc.plant.record or sc.turbines_named(),
                      "record_every": sc.plant.record_every, "ak_period_s": sc.plant.ak_period_s,
                      "ak_window_s": sc.plant.ak_window_s, "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s,
-                     "remote_apply": sc.plant.remote_apply}
+                     "remote_apply": sc.plant.remote_apply, "report_loss_after_s": sc.sdn.dr_hold_s}
         cfg = self._write_json("plant_config.json", plant_cfg)
         self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
         # the plant sets t = 0 (wall time) once its model is built and warmed up
@@ -281,6 +287,8 @@ class Run:
             if proc is not None and proc.poll() is None:
                 proc.kill()
                 self.killed.add(name)
+        elif kind == "fuzz":
+            record["out"] = self.start_fuzzer(event, len([e for e in self.timeline_events if e["type"] == "fuzz"]))
         elif kind == "set":
             self._to_stdin("plant", {"type": "set", "param": event.param, "value": event.value})
         elif kind == "load_step":
@@ -293,6 +301,27 @@ class Run:
                                     self._to_stdin, args=("plant", {"type": "fault", "on": False}))
             timer.daemon = True
             timer.start()
+
+    def start_fuzzer(self, event, number: int) -> str:
+        """Start :mod:`sdvisc.fuzz` in ``event.host``'s namespace against ``event.targets``."""
+        hosts = self.desc["hosts"]
+        def port(name: str) -> int:
+            if hosts[name]["role"] == "turbine":
+                return wire.PORT_TURBINE
+            return wire.PORT_OWFCC if name == "owfcc" else wire.PORT_SDC
+
+        targets = [[CONTROLLER_VIP, wire.PORT_CONTROLLER] if name == "controller" else [hosts[name]["ip"], port(name)]
+                   for name in event.targets]
+        me = hosts[event.host]
+        wid = wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101
+        name = f"fuzz{number}_{event.host}"
+        cfg = self._write_json(f"{name}_config.json", {"targets": targets, "count": event.count,
+                                                        "duration_s": event.duration_s, "seed": event.seed,
+                                                        "wid": wid, "step_s": self.scenario.step_s,
+                                                        "out": str(self.out / f"{name}.json")})
+        self._popen(f"{name}.fuzz", [self.python, "-m", "sdvisc.fuzz", "--config", str(cfg)],
+                    host=self.net.get(event.host))
+        return f"{name}.json"
 
     def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
         """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
@@ -341,6 +370,7 @@ class Run:
             now = time.time()
             if now >= end:
                 self._stop_controller()  # the scenario is over: no decisions on the plant's last packets
+            self.supervise(now)
             while pending and now >= self.t0 + pending[0].t:
                 event = pending.pop(0)
                 self.dispatch(event, now - self.t0)
@@ -353,6 +383,46 @@ class Run:
             raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
         self._progress(tty, final=True)
         self.finished.set()
+
+    def supervise(self, now: float) -> None:
+        """Restart a service that died without being told to (a crash: logged as an event, counted
+        in summary.json; its peers see the gap), at most MAX_RESTARTS times; and keep track of
+        when no SDN application at all is running (recoveries then say ``no_controller``)."""
+        if getattr(self, "_controller_stopping", False):
+            return
+        for name, proc in list(self.procs.items()):
+            code = proc.poll()
+            if code is None or name in self.killed or not name.endswith(RESTARTABLE):
+                continue
+            done = self.restarts.setdefault(name, [])
+            if len(done) >= MAX_RESTARTS:
+                continue
+            args, host, stdin = self.specs[name]
+            t = round(now - self.t0, 6) if self.t0 is not None else None
+            try:
+                self._popen(name, args, host=host, stdin=stdin, mode="a")
+            except OSError as exc:
+                done.append({"t": t, "exit_code": code, "error": str(exc)})
+                continue
+            done.append({"t": t, "exit_code": code})
+            self.timeline_events.append({"t": t, "source": "runner", "type": "service_restarted", "process": name,
+                                         "exit_code": code, "restart": len(done)})
+        self._track_controllers(now)
+
+    def controllers_running(self) -> bool:
+        names = [n for n in ("controller", "controller2") if n in self.procs]
+        return any(self.procs[n].poll() is None for n in names)
+
+    def _track_controllers(self, now: float) -> None:
+        if self.t0 is None:
+            return
+        t = round(now - self.t0, 6)
+        running = self.controllers_running()
+        if not running and (not self.no_controller or self.no_controller[-1][1] is not None):
+            self.no_controller.append([t, None])
+            self.timeline_events.append({"t": t, "source": "runner", "type": "no_controller"})
+        elif running and self.no_controller and self.no_controller[-1][1] is None:
+            self.no_controller[-1][1] = t
 
     def _stop_controller(self) -> None:
         if getattr(self, "_controller_stopping", False):
@@ -384,7 +454,7 @@ class Run:
         """Stop the services so they write their statistics (SIGTERM/EOF, then SIGKILL)."""
         for name, proc in self.procs.items():
             code = proc.poll()
-            if code is not None and name != "plant":
+            if code is not None and name != "plant" and not (name.endswith(".fuzz") and code == 0):
                 self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
         # the SDN app first, so the end of the plant's packets is not mistaken for a failure
         order = ["owfcc.owfcc", "controller", "controller2", "plant"] + [n for n in self.procs if n.endswith(".sdc")] + \

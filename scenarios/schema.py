@@ -136,6 +136,19 @@ class Kill(_Event):
     process: Literal["sdc", "controller", "controller2", "owfcc"]
 
 
+class Fuzz(_Event):
+    """Send hostile datagrams (random, truncated, bit-flipped and extreme-word copies of real
+    messages; :mod:`sdvisc.fuzz`) from ``host``'s own namespace to the testbed ports of
+    ``targets`` (host names, or ``controller`` for the SDN app's virtual address)."""
+
+    do: Literal["fuzz"]
+    host: str
+    targets: list[str] = Field(min_length=1)
+    count: int = Field(ge=1, le=1_000_000)
+    duration_s: float = Field(gt=0, le=3600)
+    seed: int = 1
+
+
 class SetParam(_Event):
     do: Literal["set"]
     param: str = Field(description="a plant parameter with a one-number set_<param> method of plant.model, e.g. "
@@ -159,7 +172,7 @@ class Scr(_Event):
 
 
 Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | PathLinkDown | RestoreLinks | Kill | SetParam
-                  | LoadStep | Fault | Scr,
+                  | LoadStep | Fault | Scr | Fuzz,
                   Field(discriminator="do")]
 EVENT_KINDS = tuple(get_args(cls.model_fields["do"].annotation)[0] for cls in get_args(get_args(Event)[0]))
 

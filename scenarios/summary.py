@@ -43,20 +43,23 @@ def _wall_to_t(events: list[dict], t0: float | None, source: str) -> list[dict]:
 
 
 FAULT_TYPES = ("link_down", "kill")
-DETECT_TYPES = ("dr", "port_status", "sdc_failover")
+DETECT_TYPES = ("dr", "port_status", "sdc_failover", "no_path", "path_restored")
 GAP_MATCH_S = 0.010
 MIN_INTERRUPTION_S = 0.020  # shorter gaps without an SDN reaction are jitter, not a fault's effect  # a control-packet gap belongs to a fault if it starts at most this long after it
 
 
 def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0: float | None,
-               duration_s: float) -> list[dict]:
+               duration_s: float, no_controller: list | None = None) -> list[dict]:
     """One record per (fault, turbine whose control packets it interrupted).
 
     ``t_fault`` is the timeline event, ``t_detect`` the SDN app's first reaction for that turbine
     (DR, port status or SDC failover), ``t_restored`` the first control packet the turbine received
     after the interruption; ``recovery_ms = t_restored − t_fault``. A turbine whose control packets
-    stopped and never came back has ``t_restored`` and ``recovery_ms`` None.
+    stopped and never came back has ``t_restored`` and ``recovery_ms`` None. Where nothing reacted
+    because no SDN application was running at the fault (``no_controller``: [from, to or None]
+    intervals), ``cause`` says so.
     """
+    down = [(a, b if b is not None else float("inf")) for a, b in (no_controller or [])]
     if t0 is None:
         return []
     out = []
@@ -83,7 +86,8 @@ def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0:
             out.append({
                 "wt": wt,
                 "fault": {k: v for k, v in fault.items() if k not in ("source",)},
-                "cause": reaction["type"] if reaction else "none",
+                "cause": reaction["type"] if reaction else (
+                    "no_controller" if any(a <= t_f <= b for a, b in down) else "none"),
                 "t_fault": round(t_f, 6),
                 "t_loss": round(gap[0], 6) if gap else round(last_t, 6),
                 "t_detect": round(reaction["t"], 6) if reaction else None,
@@ -94,11 +98,26 @@ def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0:
     return out
 
 
+def rejections(plant: dict, sdcs: dict, sdn: dict, owfcc: dict) -> dict:
+    """What each service dropped, by reason (wire-level reasons included), and the total."""
+    out = {"plant": dict(plant.get("rx_rejected", {})),
+           **{s: dict(d.get("rejected", {})) for s, d in sdcs.items()},
+           "sdn_app": {k.removeprefix("drop_"): v for k, v in sdn.get("counters", {}).items()
+                       if k.startswith("drop_") and ":" not in k},
+           "owfcc": {k.removeprefix("rx_reject_"): v for k, v in owfcc.items() if k.startswith("rx_reject_")}}
+    for wire_reason, n in (sdn.get("wire") or {}).items():
+        if wire_reason not in ("ok", "rejected") and n:
+            out["sdn_app"][wire_reason] = n
+    out["total"] = sum(sum(v.values()) for v in out.values())
+    return out
+
+
 def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     out: Path = run.out
     sc = run.scenario
     plant = _read_json(out / "plant_stats.json")
     sdcs = {p.stem.split("_")[0]: _read_json(p) for p in sorted(out.glob("sdc*_stats.json"))}
+    owfcc = _read_json(out / "owfcc_stats.json")
     sdn_states = [st for st in (_read_json(out / "sdn_state.json"), _read_json(out / "sdn2_state.json")) if st]
     in_charge = [st for st in sdn_states if st.get("role") in ("master", "equal", None)]
     sdn = max(in_charge or sdn_states, key=lambda st: (st.get("generation", 0), st.get("t_wall", 0)), default={})
@@ -163,7 +182,11 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "events": events,
         "recoveries": recoveries([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
                                  plant.get("turbines", {}), [e for e in events if not e.get("shadow")], run.t0,
-                                 sc.duration_s),
+                                 sc.duration_s, getattr(run, "no_controller", None)),
+        "restarts": {n: len(r) for n, r in getattr(run, "restarts", {}).items() if r},
+        "no_controller": getattr(run, "no_controller", []),
+        "rejected": rejections(plant, sdcs, sdn, owfcc),
+        "fuzz": {p.stem: _read_json(p) for p in sorted(out.glob("fuzz*_*.json")) if not p.stem.endswith("_config")},
         "processes_exited_early": {n: c for n, c in run.exited_early.items() if n not in run.killed},
         "processes_killed": sorted(run.killed),
         "openflow": sdn.get("openflow", {}),

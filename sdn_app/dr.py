@@ -22,8 +22,12 @@ is detected the same way.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
+from sdvisc.counter_gate import CounterGate
+
+AK_MAX_STEP = 100
+"""AK counter steps accepted without confirmation (about 1 s of AKs, losses included)."""
 PLAUSIBLE_CLOCK_S = 1.0
 """An AK's send time further than this from its receive time is not trusted (other clock)."""
 
@@ -34,6 +38,7 @@ class AckTrack:
 
     ak: int = 0
     seq: int = -1
+    gate: CounterGate = field(default_factory=lambda: CounterGate(AK_MAX_STEP))
     ctrl_rx: int = 0
     t_last_rx: float | None = None
     t_last_sent: float | None = None
@@ -78,10 +83,11 @@ class DrMonitor:
     def on_ak(self, wt: str, seq: int, ak: int, ctrl_rx: int, ctrl_age_s: float, now: float,
               sent: float | None = None) -> bool:
         """Record one AK message received at ``now`` (sent at ``sent``, if known); False if it is
-        a duplicate or older than the last one."""
+        a duplicate, older than the last one, or an unconfirmed jump of the counter
+        (:class:`sdvisc.counter_gate.CounterGate`)."""
         t = self.track(wt)
-        if seq <= t.seq:
-            return False
+        if not t.gate.accepts(t.gate.admit(seq)):
+            return False  # duplicate, older, or a jump no second AK has confirmed (forged/mutated)
         if sent is None or not now - PLAUSIBLE_CLOCK_S <= sent <= now:
             sent = now
         t.seq, t.ak, t.ctrl_rx, t.t_last_rx = seq, ak, ctrl_rx, now

@@ -25,10 +25,14 @@ import math
 from collections import deque
 from dataclasses import dataclass, field
 
+from sdvisc.counter_gate import CounterGate
+
 WINDOW = 200
 """Inter-arrival times kept per SDC."""
 MIN_SAMPLES = 10
 """Below this many intervals the nominal heartbeat period stands in for the observed ones."""
+HEARTBEAT_MAX_STEP = 100
+"""Heartbeat counter steps accepted without confirmation (about 1 s of heartbeats)."""
 ALIVE_AFTER = 3
 """Consecutive heartbeats that bring a dead SDC back."""
 
@@ -39,6 +43,7 @@ class HeartbeatTrack:
 
     t_last: float | None = None
     seq: int = 0
+    gate: CounterGate = field(default_factory=lambda: CounterGate(HEARTBEAT_MAX_STEP))
     intervals: deque = field(default_factory=lambda: deque(maxlen=WINDOW))
     since_dead: int = 0
     restarts: int = 0
@@ -69,11 +74,13 @@ class SdcLiveness:
         left out of the distribution."""
         t = self.tracks.setdefault(sdc, HeartbeatTrack())
         changes = []
-        if t.seq and seq < t.seq - 10:
-            t.restarts += 1
+        previous = t.gate.last
+        verdict = t.gate.admit(seq)
+        if not t.gate.accepts(verdict):
+            return changes  # duplicate, reordered, or a jump not confirmed (yet): no new evidence
+        if verdict == "resync" and previous is not None and seq < previous:
+            t.restarts += 1  # the counter went back and a second heartbeat confirmed it
             changes.append("restarted")
-        elif seq <= t.seq:
-            return changes  # duplicate or reordered: no new evidence
         t.seq = seq
         if t.t_last is not None and now > t.t_last and t.t_last >= resumed:
             t.intervals.append(now - t.t_last)

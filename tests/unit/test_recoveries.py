@@ -43,3 +43,30 @@ def test_failover_reaction_names_turbines():
     events = [{"t": 2.04, "type": "sdc_failover", "turbines": ["wt1_1"]}]
     (rec,) = recoveries([fault], stats, events, T0, duration_s=4.0)
     assert rec["cause"] == "sdc_failover" and rec["recovery_ms"] == pytest.approx(46.0)
+
+
+def test_a_failure_while_no_sdn_app_runs_says_so():
+    fault = {"t": 2.0, "type": "link_down", "a": "s1", "b": "s3"}
+    stats = {"wt1_1": turbine([], last=2.001)}
+    (rec,) = recoveries([fault], stats, [], T0, duration_s=4.0, no_controller=[[1.5, None]])
+    assert rec["cause"] == "no_controller" and rec["t_restored"] is None
+    (rec,) = recoveries([fault], stats, [], T0, duration_s=4.0, no_controller=[[0.5, 1.0]])
+    assert rec["cause"] == "none"  # an SDN app was running again at the fault
+
+
+def test_a_partition_healed_when_a_link_returns_is_a_recovery():
+    fault = {"t": 2.0, "type": "link_down", "a": "s1", "b": "s3"}
+    stats = {"wt1_1": turbine([(2.0005, 2.31)], last=3.99)}
+    events = [{"t": 2.045, "type": "no_path", "wt": "wt1_1"}, {"t": 2.305, "type": "path_restored", "wt": "wt1_1"}]
+    (rec,) = recoveries([fault], stats, events, T0, duration_s=4.0)
+    assert rec["cause"] == "no_path" and rec["recovery_ms"] == pytest.approx(310.0)
+
+
+def test_rejections_by_service_and_reason():
+    from scenarios.summary import rejections
+
+    out = rejections({"rx_rejected": {"future_seq": 2, "length": 1}}, {"sdc1": {"rejected": {"unknown_turbine": 5}}},
+                     {"counters": {"drop_bad_value": 1, "drop_no_flow:10.0.0.1->10.0.0.2": 7, "heartbeats": 9},
+                      "wire": {"ok": 100, "length": 3, "rejected": 3}}, {"rx_reject_unknown_req_id": 4})
+    assert out["sdc1"] == {"unknown_turbine": 5} and out["sdn_app"] == {"bad_value": 1, "length": 3}
+    assert out["owfcc"] == {"unknown_req_id": 4} and out["total"] == 2 + 1 + 5 + 1 + 3 + 4

@@ -48,7 +48,10 @@ def test_a_dead_sdc_comes_back_only_after_several_heartbeats_and_a_restart_is_no
     live.declare_dead("sdc1")
     changes = [live.on_heartbeat("sdc1", 19 + k, 1.0 + 0.01 * k) for k in range(1, ALIVE_AFTER + 1)]
     assert changes[:-1] == [[]] * (ALIVE_AFTER - 1) and changes[-1] == ["alive"] and "sdc1" not in live.dead
-    assert live.on_heartbeat("sdc1", 1, 2.0) == ["restarted"]
+    assert live.on_heartbeat("sdc1", 1, 2.0) == []  # one heartbeat going back may be forged
+    assert live.on_heartbeat("sdc1", 2, 2.01) == ["restarted"]  # a second one confirms the restart
+    assert live.on_heartbeat("sdc1", 2**31 - 1, 2.02) == [] and live.tracks["sdc1"].seq == 2
+    assert live.on_heartbeat("sdc1", 3, 2.03) == []  and live.tracks["sdc1"].seq == 3
 
 
 # ---------------------------------------------------------------------------- the controller
