@@ -166,7 +166,9 @@ class _Parts:
                 ends = {event.a, event.b}
                 if not ends <= switches | set(hosts) or (ends <= switches and frozenset(ends) not in links):
                     problems.append((("timeline", i), f"no link {event.a}-{event.b} in topology {topo.name}"))
-            if event.do in ("kill", "fuzz") and event.host not in hosts:
+            if event.do == "spoof_ak" and event.victim not in hosts:
+                problems.append((("timeline", i, "victim"), f"turbine {event.victim!r} is not in topology {topo.name}"))
+            if event.do in ("kill", "fuzz", "spoof_ak") and event.host not in hosts:
                 problems.append((("timeline", i, "host"), f"no host {event.host!r}"))
             if event.do == "fuzz":
                 problems += [(("timeline", i, "targets", j), f"no host {name!r} (or 'controller')")

@@ -285,10 +285,11 @@ class Run:
             name = event.process if event.process.startswith("controller") else f"{event.host}.{event.process}"
             proc = self.procs.get(name)
             if proc is not None and proc.poll() is None:
+                if not event.crash:
+                    self.killed.add(name)  # planned: never restarted (a crash is, by supervise)
                 proc.kill()
-                self.killed.add(name)
-        elif kind == "fuzz":
-            record["out"] = self.start_fuzzer(event, len([e for e in self.timeline_events if e["type"] == "fuzz"]))
+        elif kind in ("fuzz", "spoof_ak"):
+            record["out"] = self.start_fuzzer(event, len([e for e in self.timeline_events if e["type"] == kind]))
         elif kind == "set":
             self._to_stdin("plant", {"type": "set", "param": event.param, "value": event.value})
         elif kind == "load_step":
@@ -303,23 +304,29 @@ class Run:
             timer.start()
 
     def start_fuzzer(self, event, number: int) -> str:
-        """Start :mod:`sdvisc.fuzz` in ``event.host``'s namespace against ``event.targets``."""
+        """Start :mod:`sdvisc.fuzz` in ``event.host``'s namespace: hostile datagrams at
+        ``event.targets`` (``fuzz``) or AKs for another turbine (``spoof_ak``)."""
         hosts = self.desc["hosts"]
-        def port(name: str) -> int:
-            if hosts[name]["role"] == "turbine":
-                return wire.PORT_TURBINE
-            return wire.PORT_OWFCC if name == "owfcc" else wire.PORT_SDC
-
-        targets = [[CONTROLLER_VIP, wire.PORT_CONTROLLER] if name == "controller" else [hosts[name]["ip"], port(name)]
-                   for name in event.targets]
         me = hosts[event.host]
-        wid = wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101
-        name = f"fuzz{number}_{event.host}"
-        cfg = self._write_json(f"{name}_config.json", {"targets": targets, "count": event.count,
-                                                        "duration_s": event.duration_s, "seed": event.seed,
-                                                        "wid": wid, "step_s": self.scenario.step_s,
-                                                        "out": str(self.out / f"{name}.json")})
-        self._popen(f"{name}.fuzz", [self.python, "-m", "sdvisc.fuzz", "--config", str(cfg)],
+        name = f"{event.do}{number}_{event.host}"
+        cfg = {"count": event.count, "duration_s": event.duration_s, "out": str(self.out / f"{name}.json")}
+        if event.do == "spoof_ak":
+            victim = hosts[event.victim]
+            who = victim if event.impersonate else me
+            cfg.update(mode="spoof_ak", victim_wid=wire.turbine_id(victim["cluster"], victim["number"]), ak=event.ak,
+                       src_ip=who["ip"], src_mac=who["mac"], dst_ip=CONTROLLER_VIP, dst_mac=CONTROLLER_VMAC,
+                       iface=self.net.get(event.host).defaultIntf().name, seq0=100_000)
+        else:
+            def port(target: str) -> int:
+                if hosts[target]["role"] == "turbine":
+                    return wire.PORT_TURBINE
+                return wire.PORT_OWFCC if target == "owfcc" else wire.PORT_SDC
+
+            cfg.update(targets=[[CONTROLLER_VIP, wire.PORT_CONTROLLER] if t == "controller" else [hosts[t]["ip"], port(t)]
+                                for t in event.targets], seed=event.seed, step_s=self.scenario.step_s,
+                       wid=wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101)
+        path = self._write_json(f"{name}_config.json", cfg)
+        self._popen(f"{name}.fuzz", [self.python, "-m", "sdvisc.fuzz", "--config", str(path)],
                     host=self.net.get(event.host))
         return f"{name}.json"
 

@@ -134,6 +134,7 @@ class Kill(_Event):
     do: Literal["kill"]
     host: str
     process: Literal["sdc", "controller", "controller2", "owfcc"]
+    crash: bool = Field(False, description="a crash, not a planned stop: the runner restarts the service")
 
 
 class Fuzz(_Event):
@@ -147,6 +148,20 @@ class Fuzz(_Event):
     count: int = Field(ge=1, le=1_000_000)
     duration_s: float = Field(gt=0, le=3600)
     seed: int = 1
+
+
+class SpoofAk(_Event):
+    """Send AK messages (``ak`` 0 or 1) for the turbine ``victim`` from ``host``: with ``host``'s
+    own addresses, or (``impersonate``) with the victim's IP and MAC — what the SDN app can and
+    cannot tell apart (docs/sdn.md)."""
+
+    do: Literal["spoof_ak"]
+    host: str
+    victim: str = Field(pattern=TURBINE_PATTERN)
+    ak: Literal[0, 1] = 0
+    impersonate: bool = False
+    count: int = Field(100, ge=1, le=100_000)
+    duration_s: float = Field(1.0, gt=0, le=3600)
 
 
 class SetParam(_Event):
@@ -172,7 +187,7 @@ class Scr(_Event):
 
 
 Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | PathLinkDown | RestoreLinks | Kill | SetParam
-                  | LoadStep | Fault | Scr | Fuzz,
+                  | LoadStep | Fault | Scr | Fuzz | SpoofAk,
                   Field(discriminator="do")]
 EVENT_KINDS = tuple(get_args(cls.model_fields["do"].annotation)[0] for cls in get_args(get_args(Event)[0]))
 

@@ -186,7 +186,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "restarts": {n: len(r) for n, r in getattr(run, "restarts", {}).items() if r},
         "no_controller": getattr(run, "no_controller", []),
         "rejected": rejections(plant, sdcs, sdn, owfcc),
-        "fuzz": {p.stem: _read_json(p) for p in sorted(out.glob("fuzz*_*.json")) if not p.stem.endswith("_config")},
+        "fuzz": {p.stem: _read_json(p) for pattern in ("fuzz*_*.json", "spoof_ak*_*.json")
+                 for p in sorted(out.glob(pattern)) if not p.stem.endswith("_config")},
         "processes_exited_early": {n: c for n, c in run.exited_early.items() if n not in run.killed},
         "processes_killed": sorted(run.killed),
         "openflow": sdn.get("openflow", {}),

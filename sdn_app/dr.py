@@ -17,7 +17,9 @@ the header is missing or implausible). The loss therefore started at ``sent − 
   counted from the end of the last such stall (``resumed``) if that is later.
 
 After a reroute the hold starts again from the reroute time, so a second failure on the new path
-is detected the same way.
+is detected the same way — but a DR that did not bring the control packets back (they are still
+missing when the next one is due) doubles the hold of the next (:meth:`DrMonitor.hold_of`): the loss is
+then not the path's, and rerouting every 40 ms forever would only churn the switches.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from dataclasses import dataclass, field
 
 from sdvisc.counter_gate import CounterGate
 
+MAX_BACKOFF_DOUBLINGS = 5
 AK_MAX_STEP = 100
 """AK counter steps accepted without confirmation (about 1 s of AKs, losses included)."""
 PLAUSIBLE_CLOCK_S = 1.0
@@ -46,6 +49,7 @@ class AckTrack:
     t_reported: float | None = None
     t_rearm: float = float("-inf")
     fired: bool = False
+    streak: int = 0  # DRs in a row without control packets coming back in between
     confirmed: int = 0
     armed: bool = True
 
@@ -95,7 +99,7 @@ class DrMonitor:
         if ak:
             if not t.armed:  # communication established: the start-up grace ends now
                 t.armed, t.t_rearm = True, now
-            t.t_loss, t.t_reported, t.fired = None, None, False
+            t.t_loss, t.t_reported, t.fired, t.streak = None, None, False, 0
         else:
             started = max(sent - max(ctrl_age_s, 0.0), t.t_rearm)
             if t.t_loss is None or (t.t_reported is not None and started > t.t_reported):
@@ -129,10 +133,18 @@ class DrMonitor:
             return 0.0
         return max(0.0, t.t_reported - t.t_loss)
 
+    def hold_of(self, wt: str) -> float:
+        """The hold for the turbine's next DR: ``hold_s``, doubled for every DR in a row that did
+        not bring its control packets back (a reroute cannot cure a loss that is not the path's;
+        at most 32 × ``hold_s``)."""
+        t = self.tracks.get(wt)
+        return self.hold_s * 2 ** min(t.streak if t else 0, MAX_BACKOFF_DOUBLINGS)
+
     def _confirmed(self, t: AckTrack, since: float, now: float, stalled: bool, resumed: float) -> bool:
-        if t.t_reported is not None and t.t_reported - since >= self.hold_s:
+        hold = self.hold_s * 2 ** min(t.streak, MAX_BACKOFF_DOUBLINGS)
+        if t.t_reported is not None and t.t_reported - since >= hold:
             return True  # the turbine itself reported a loss as long as the hold
-        return self._silent(t, now, resumed) and not stalled and now - since >= self.hold_s
+        return self._silent(t, now, resumed) and not stalled and now - since >= hold
 
     def due(self, wt_in_visc: list[str], now: float, *, stalled: bool = False,
             resumed: float = float("-inf")) -> list[tuple[str, float]]:
@@ -145,6 +157,7 @@ class DrMonitor:
                 continue
             if self._confirmed(t, since, now, stalled, resumed):
                 t.fired = True
+                t.streak += 1
                 t.confirmed += 1
                 out.append((wt, since))
         return out

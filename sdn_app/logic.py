@@ -474,7 +474,18 @@ class Controller:
             self.dr.start(name, now)
             self.counters["path_restored"] += 1
             self._event(now, "path_restored", wt=name, t_loss=t_loss, t_detect=now, new_path=path)
+            actions += self._reengage(name, active.sdc, now)
         return actions
+
+    def _reengage(self, name: str, sdc: str, now: float) -> list:
+        """After a long interruption (partition healed, SDC restarted) the turbine has fallen back to
+        its own control and the SDC's instance is stale or gone: start the instance afresh (bumpless,
+        from the turbine's present operating point) and the turbine's remote mode again."""
+        row = self.tables.t1[name]
+        wid = wire.turbine_id(row.cluster, row.number)
+        params = self.paths[name].params if name in self.paths else {}
+        return (self._command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params, sdc=sdc)
+                + self._command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_START, wid))
 
     # ------------------------------------------------------------------ SDC failover
     def _stalled(self, now: float) -> bool:
@@ -703,9 +714,7 @@ class Controller:
                 served = sorted(n for n, p in self.paths.items() if p.sdc == sdc)
                 self._event(now, "sdc_restarted", sdc=sdc, turbines=served)
                 for name in served:
-                    row = self.tables.t1[name]
-                    actions += self._command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE,
-                                             wire.turbine_id(row.cluster, row.number), self.paths[name].params, sdc=sdc)
+                    actions += self._reengage(name, sdc, now)
         return actions
 
     # ------------------------------------------------------------------ introspection

@@ -115,12 +115,42 @@ def run(cfg: dict) -> dict:
             "t_end": time.time(), "seed": cfg.get("seed", 1)}
 
 
+def spoof_ak(cfg: dict) -> dict:
+    """Mode ``spoof_ak``: send ``count`` AK messages for turbine ``victim_wid`` (``ak`` 0 or 1) to
+    the SDN app from this host, with the given Ethernet/IP source (this host's own, or the
+    victim's), as raw frames on ``iface`` (scapy builds them). The AK counter continues from
+    ``seq0`` (a forger that guessed the victim's counter well)."""
+    from scapy.layers.inet import IP, UDP
+    from scapy.layers.l2 import Ether
+
+    count, duration = int(cfg["count"]), float(cfg["duration_s"])
+    sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW)
+    sock.bind((cfg["iface"], 0))
+    t_start, sent = time.time(), 0
+    for k in range(count):
+        sec, nsec = divmod(time.time_ns(), 1_000_000_000)
+        seq = int(cfg.get("seq0", 1)) + k
+        payload = wire.encode(wire.MsgType.AK, {"wt": int(cfg["victim_wid"]), "seq": seq, "ak": int(cfg["ak"]),
+                                                "ctrl_rx": seq, "ctrl_age_ms": 0.5 if cfg["ak"] else 80.0},
+                              header=wire.Header(seq, sec & wire.UINT32_MAX, nsec))
+        frame = (Ether(src=cfg["src_mac"], dst=cfg["dst_mac"]) / IP(src=cfg["src_ip"], dst=cfg["dst_ip"])
+                 / UDP(sport=wire.PORT_TURBINE, dport=wire.PORT_CONTROLLER) / payload)
+        sock.send(bytes(frame))
+        sent += 1
+        wait = t_start + duration * (k + 1) / count - time.time()
+        if wait > 0:
+            time.sleep(wait)
+    sock.close()
+    return {"mode": "spoof_ak", "total": sent, "ak": int(cfg["ak"]), "src_ip": cfg["src_ip"],
+            "src_mac": cfg["src_mac"], "t_start": t_start, "t_end": time.time()}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m sdvisc.fuzz", description=__doc__.splitlines()[0])
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
     cfg = json.loads(Path(args.config).read_text())
-    result = run(cfg)
+    result = spoof_ak(cfg) if cfg.get("mode") == "spoof_ak" else run(cfg)
     Path(cfg["out"]).write_text(json.dumps(result, indent=1))
     return 0
 

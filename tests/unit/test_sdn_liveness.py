@@ -12,7 +12,7 @@ from sdn_app.config import AppConfig
 from sdn_app.liveness import ALIVE_AFTER, SdcLiveness
 from sdn_app.logic import Controller
 from sdvisc import wire
-from tests.unit.test_sdn_logic import frame, ingress, make_config, request
+from tests.unit.test_sdn_logic import decode_out, frame, ingress, is_learn, make_config, request
 from topologies import topos
 from topologies.base import describe
 
@@ -167,6 +167,30 @@ def test_a_partition_is_reported_once_and_healed_when_a_link_returns():
     (restored,) = [e for e in ctl.take_events() if e["type"] == "path_restored"]
     assert restored["wt"] == "wt1_1" and restored["t_loss"] == pytest.approx(1.5, abs=0.01)
     assert str(ctl.tables.t3["wt1_1"]).endswith("/1") and not ctl.partitioned
+    cmds = [decode_out(a) for a in actions if isinstance(a, fl.PacketOut) and not is_learn(a)]
+    assert {m["cmd"] for _, _, m in cmds} >= {wire.Command.START_INSTANCE, wire.Command.STREAM_START}  # re-engaged
+
+
+def test_dr_that_does_not_bring_control_back_backs_off():
+    from sdn_app.dr import DrMonitor
+
+    m = DrMonitor(hold_s=0.040, ak_timeout_s=0.030)
+    m.start("wt1_1", now=0.0)
+    m.on_ak("wt1_1", 1, 1, 1, 0.0, now=1.0)
+    fired, now, seq = [], 1.0, 1
+    while now < 2.0:  # the loss is not the path's: every reroute leaves it as it was
+        now = round(now + 0.002, 6)
+        if round(now * 1000) % 10 == 0:
+            seq += 1
+            m.on_ak("wt1_1", seq, 0, 1, now - 1.0, now)
+        for wt, _ in m.due(["wt1_1"], now):
+            fired.append(now)
+            m.start(wt, now)  # what a reroute does
+    gaps = [b - a for a, b in zip(fired, fired[1:])]
+    assert fired[0] == pytest.approx(1.04, abs=0.011)
+    assert gaps[:3] == pytest.approx([0.08, 0.16, 0.32], abs=0.011)  # 40 ms, then doubled each time (10 ms AKs)
+    m.on_ak("wt1_1", seq + 1, 1, 2, 0.0, now + 0.01)
+    assert m.hold_of("wt1_1") == 0.040  # control came back: the next DR waits 40 ms again
 
 
 def test_bad_ids_are_dropped_and_answered_without_an_exception():

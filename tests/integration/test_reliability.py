@@ -1,0 +1,123 @@
+"""Reliability and security on real Mininet + Open vSwitch + os-ken: hostile datagrams at every
+port, a partition reported once and healed, forged AKs, a crashed service restarted, a failure
+while no SDN application runs. Assertions are about what the services do (counted, survived,
+recovered), not about this machine's timing."""
+
+from __future__ import annotations
+
+import pytest
+import yaml
+
+from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario
+
+pytestmark = pytest.mark.network
+SC = ROOT / "scenarios"
+
+
+def missing_outside(summary: dict, wt: str, windows: list[tuple[float, float]], t_from: float) -> float:
+    """Fraction of the control packets expected at ``wt`` from ``t_from`` to the end, outside
+    ``windows``, that did not arrive (from the turbine's recorded gaps between control packets)."""
+    step = summary["step_s"]
+    inside = lambda t: any(a <= t <= b for a, b in windows)  # noqa: E731
+    gaps = [(a, b) for a, b in summary["turbines"][wt]["ctrl_gaps"] if a >= t_from and not inside(a) and not inside(b)]
+    expected = (summary["duration_s"] - t_from - sum(b - a for a, b in windows)) / step
+    return sum((b - a) / step - 1 for a, b in gaps) / expected
+
+
+def test_hostile_datagrams_at_every_port_are_counted_and_control_goes_on(tmp_path):
+    s = run_scenario(SC / "fuzz_paper.yaml", tmp_path)
+    assert s["processes_exited_early"] == {} and s["restarts"] == {}, "a service died under fuzzing"
+    sent = {k: v for k, v in s["fuzz"].items()}
+    assert sum(v["total"] for v in sent.values()) >= 20_000
+    to = {}
+    for result in sent.values():
+        for target, kinds in result["sent"].items():
+            to[target] = to.get(target, 0) + sum(kinds.values())
+    rejected = s["rejected"]
+    # what reached a service was dropped and counted by reason (a few are lost in the switches'
+    # queues, and a mutation that is still a valid, newer message is used, not rejected)
+    assert sum(rejected["sdc1"].values()) >= 0.8 * to["10.0.0.21:50010"]
+    plant_seen = sum(rejected["plant"].values()) + s["turbines"]["wt1_1"]["packets"]["ctrl_stale"]
+    assert plant_seen >= 0.8 * to["10.0.1.1:50020"]
+    to_app = to["10.0.0.254:50000"] * 2 + to[next(t for t in to if t.endswith(":50030"))]
+    assert sum(rejected["sdn_app"].values()) >= 0.8 * to_app
+    for service in ("plant", "sdc1", "sdn_app"):
+        assert rejected[service].get("internal", 0) == 0, f"{service} hit an unexpected exception"
+    # outside the fuzz window (2-6 s) the SDViSC keeps its control packets
+    assert missing_outside(s, "wt1_1", [(2.0, 6.1)], t_from=0.7) <= 0.02
+    assert s["turbines"]["wt1_1"]["last_ctrl_rx_t"] > 8.9
+    assert not [e for e in s["events"] if e["type"] == "dr" and e["t"] > 6.1 and not e.get("after_end")]
+    assert_no_leftovers()
+
+
+def test_a_partition_is_reported_once_and_healed(tmp_path):
+    s = run_scenario(SC / "partition_farm.yaml", tmp_path)
+    kinds = [e["type"] for e in s["events"] if e.get("source") == "sdn_app"]
+    assert "reroute_failed" not in kinds
+    no_path = [e for e in s["events"] if e["type"] == "no_path"]
+    assert sorted(e["wt"] for e in no_path) == ["wt2_1", "wt4_1"], "one no_path per cut-off turbine"
+    assert all(2.5 < e["t"] < 3.5 for e in no_path)
+    restored = {e["wt"] for e in s["events"] if e["type"] == "path_restored"}
+    assert restored == {"wt2_1", "wt4_1"}
+    healed = [r for r in s["recoveries"] if r["fault"]["a"] == "sub1"]
+    assert {r["wt"] for r in healed} == {"wt2_1", "wt4_1"}
+    assert all(r["cause"] == "no_path" and r["t_restored"] is not None and r["t_restored"] > 3.5 for r in healed)
+    assert s["tables"]["T3"]["wt2_1"] == "1/1" and s["tables"]["T3"]["wt4_1"] == "1/1"
+    assert_no_leftovers()
+
+
+@pytest.mark.parametrize("topology", ["farm", "paper"])
+def test_forged_aks_from_another_host(tmp_path, topology):
+    """AK = 0 for wt1_1 sent by wt1_2, first with its own addresses, then with the victim's IP and
+    MAC. Own addresses: dropped everywhere. Impersonation: dropped where the turbine sits on an
+    OpenFlow port (farm: ingress check); behind the paper topology's L2 switch the controller
+    cannot tell (documented in docs/sdn.md)."""
+    topo = ({"name": "farm", "clusters": 5, "turbines": 10, "layout": "compact"} if topology == "farm"
+            else {"name": "paper", "clusters": 1, "turbines": 2})
+    sc = {"name": f"spoof_{topology}", "topology": topo, "duration_s": 4.5, "plant": {"model": "minimal"},
+          "sdc": {"backup": False},
+          "timeline": [{"t": 0.5, "do": "visc_on", "wt": "wt1_1"},
+                       {"t": 1.5, "do": "spoof_ak", "host": "wt1_2", "victim": "wt1_1", "count": 100, "duration_s": 1.0},
+                       {"t": 3.0, "do": "spoof_ak", "host": "wt1_2", "victim": "wt1_1", "impersonate": True,
+                        "count": 100, "duration_s": 1.0}]}
+    path = tmp_path / "spoof.yaml"
+    path.write_text(yaml.safe_dump(sc))
+    s = run_scenario(path, tmp_path / "out")
+    counters = s["sdn_counters"]
+    assert counters.get("drop_ak_unregistered", 0) >= 95  # own addresses: never taken for wt1_1's
+    dr_in_first = [e for e in s["events"] if e["type"] == "dr" and 1.5 <= e["t"] < 3.0]
+    assert dr_in_first == []
+    if topology == "farm":
+        assert counters.get("drop_ak_wrong_port", 0) >= 95
+        assert not [e for e in s["events"] if e["type"] == "dr"], "a forged AK caused a DR"
+    assert_no_leftovers()
+
+
+def test_a_crashed_sdc_is_restarted_and_serves_again(tmp_path):
+    sc = yaml.safe_load((SC / "smoke.yaml").read_text())
+    sc.update(name="crash_sdc", duration_s=8.0, timeline=[{"t": 0.5, "do": "visc_on", "wt": "wt1_1"},
+                                                       {"t": 1.5, "do": "kill", "host": "sdc1", "process": "sdc",
+                                                        "crash": True}])
+    path = tmp_path / "crash.yaml"
+    path.write_text(yaml.safe_dump(sc))
+    s = run_scenario(path, tmp_path / "out")
+    assert s["restarts"] == {"sdc1.sdc": 1}
+    assert any(e["type"] == "service_restarted" and e["process"] == "sdc1.sdc" for e in s["events"])
+    assert any(e["type"] == "sdc_restarted" for e in s["events"]), "the SDN app saw the SDC come back"
+    assert s["turbines"]["wt1_1"]["last_ctrl_rx_t"] > 7.9, "control resumed after the restart"
+    assert_no_leftovers()
+
+
+def test_a_failure_while_no_sdn_app_runs_is_reported_as_such(tmp_path):
+    sc = yaml.safe_load((SC / "link_failure_dr.yaml").read_text())
+    sc["name"] = "no_controller"
+    sc["timeline"] = [{"t": 1.0, "do": "visc_on", "wt": "wt1_1"},
+                      {"t": 1.5, "do": "kill", "host": "owfcc", "process": "controller"},
+                      {"t": 2.0, "do": "link_down", "a": "s1", "b": "s3"}]
+    path = tmp_path / "noctl.yaml"
+    path.write_text(yaml.safe_dump(sc))
+    s = run_scenario(path, tmp_path / "out")
+    (rec,) = s["recoveries"]
+    assert rec["cause"] == "no_controller" and rec["t_restored"] is None
+    assert s["no_controller"] and 1.5 <= s["no_controller"][0][0] < 2.0
+    assert_no_leftovers()
