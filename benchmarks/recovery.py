@@ -101,6 +101,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="link failures per (topology, mechanism) run (0: SDC failover runs only)")
     parser.add_argument("--failover-runs", type=int, default=10)
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
+    parser.add_argument("--soak-runs", type=int, default=0,
+                        help="also this many fault-free runs per case of benchmarks/liveness_soak.py (false positives)")
+    parser.add_argument("--soak-duration", type=float, default=60.0)
     args = parser.parse_args(argv)
     if os.geteuid() != 0:
         print("benchmarks/recovery.py needs root (Mininet)", file=sys.stderr)
@@ -110,6 +113,7 @@ def main(argv: list[str] | None = None) -> int:
     started = time.time()
     result: dict = {"benchmark": "recovery", "failures_per_run": args.failures, "runs": {}}
     samples: dict[str, list[float]] = {m: [] for m in MECHANISMS}
+    detect: dict[str, list[float]] = {"dr": [], "sdc_failover": []}
     unrecovered: dict[str, int] = {m: 0 for m in MECHANISMS}
     for topo_name, (topo, turbines) in (TOPOLOGIES.items() if args.failures > 0 else ()):
         for mech, sdn in MECHANISMS.items():
@@ -117,6 +121,7 @@ def main(argv: list[str] | None = None) -> int:
             summary = run(failure_scenario(name, topo, turbines, sdn, args.failures), work)
             recs = summary["recoveries"]
             times = [r["recovery_ms"] for r in recs if r["recovery_ms"] is not None]
+            detect["dr"] += [r["detect_ms"] for r in recs if r["cause"] == "dr" and r["detect_ms"] is not None]
             if mech == "ff":
                 times = targeted_interruptions(summary)
             samples[mech] += times
@@ -129,6 +134,8 @@ def main(argv: list[str] | None = None) -> int:
     for i in range(args.failover_runs):
         summary = run(failover_scenario(f"failover_{i}"), work)
         failover += [r["recovery_ms"] for r in summary["recoveries"] if r["recovery_ms"] is not None]
+        detect["sdc_failover"] += [r["detect_ms"] for r in summary["recoveries"]
+                                   if r["cause"] == "sdc_failover" and r["detect_ms"] is not None]
     for mech in MECHANISMS:
         stats = percentiles(samples[mech])
         result[f"{mech}_ms"] = stats
@@ -142,6 +149,16 @@ def main(argv: list[str] | None = None) -> int:
                          "counts say how many failures did")
     result["failover_ms"] = percentiles(failover)
     result["failover_p95_ms"] = result["failover_ms"].get("p95")
+    result["detect_ms"] = {k: percentiles(v) for k, v in detect.items()}  # fault → the app's decision
+    if args.soak_runs:
+        import liveness_soak  # benchmarks/liveness_soak.py, beside this file
+
+        soak = {}
+        for case in ("paper", "farm4"):
+            runs = [liveness_soak.count(run(dict(liveness_soak.case(case, args.soak_duration),
+                                                 name=f"soak_{case}_{i}"), work)) for i in range(args.soak_runs)]
+            soak[case] = {k: sum(r[k] for r in runs) for k in liveness_soak.FALSE_EVENTS}
+        result["false_positives"] = {"runs_per_case": args.soak_runs, "duration_s": args.soak_duration, **soak}
     result["goals"] = GOALS
     result["machine"] = {"platform": platform.platform(), "cpus": os.cpu_count(), "python": platform.python_version()}
     result["wall_s"] = round(time.time() - started, 1)

@@ -6,6 +6,8 @@ from __future__ import annotations
 import random
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from sdn_app import flows as fl
 from sdn_app.config import AppConfig
@@ -222,3 +224,34 @@ def test_ingress_port_check_where_the_turbine_is_on_an_openflow_port():
     assert ctl.counters["drop_ak_wrong_port"] == 1 and ctl.dr.tracks["wt1_1"].seq == -1
     _ak(ctl, "wt1_1", 2, 1, 0.0, 1.2, where=home)
     assert ctl.dr.tracks["wt1_1"].seq == 2
+
+
+def _real_payloads():
+    ak = wire.encode(wire.MsgType.AK, {"wt": 101, "seq": 5, "ak": 0, "ctrl_rx": 1, "ctrl_age_ms": 50.0},
+                     header=wire.Header(5, 0, 0))
+    hb = wire.encode(wire.MsgType.HEARTBEAT, {"sdc_id": 1, "seq": 5, "n_instances": 1, "t_wall": 0.0},
+                     header=wire.Header(5, 0, 0))
+    reply = wire.encode(wire.MsgType.REPLY, {"req_id": 1, "status": 0, "wt": 101, "cmd": 1, "detail": 0},
+                        header=wire.Header(1, 0, 0))
+    return [ak, hb, reply, request(wire.Command.VISC_ON), request(wire.Command.SET_PARAMS)]
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(which=st.integers(0, 4), sender=st.sampled_from(["wt1_1", "sdc1", "owfcc"]),
+       flips=st.lists(st.integers(0, 8 * 64 - 1), max_size=4), cut=st.integers(0, 80), extra=st.binary(max_size=8))
+def test_packet_in_never_raises_on_mutated_messages(which, sender, flips, cut, extra):
+    """The app's receive step: a mutated real message from a registered host is used or dropped
+    and counted; it never raises (an exception would be lost in os-ken's event loop)."""
+    ctl = Controller(make_config(), now=0.0)
+    _visc_on(ctl, now=1.0)
+    data = bytearray(_real_payloads()[which])
+    for bit in flips:
+        if bit // 8 < len(data):
+            data[bit // 8] ^= 1 << (bit % 8)
+    payload = bytes(data[:cut]) + extra if cut < len(data) else bytes(data) + extra
+    host = ctl.config.topology.hosts[sender].model_dump()
+    where = ingress(ctl, sender) if sender != "wt1_1" else (3, 1)
+    before = sum(ctl.counters.values())
+    ctl.packet_in(*where, frame(host, payload), now=1.1)
+    ctl.tick(1.2)
+    assert sum(ctl.counters.values()) > before  # counted: used (requests, ak_rx, heartbeats, ...) or dropped
