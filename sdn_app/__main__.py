@@ -12,6 +12,8 @@ import os
 import signal
 import sys
 
+from sdvisc.config import AppConfig, ConfigError, load_config
+
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m sdn_app", description=__doc__)
@@ -25,10 +27,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--peer", help="LISTEN:SEND UDP ports on 127.0.0.1 for the master's heartbeat")
     args = parser.parse_args(argv)
 
-    from sdn_app.config import ConfigError, load_config
-
     try:
-        load_config(args.config)
+        load_config(AppConfig, args.config)
     except ConfigError as exc:
         print(f"sdn_app: {exc}", file=sys.stderr)
         return 1

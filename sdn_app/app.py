@@ -20,10 +20,10 @@ from os_ken.controller.handler import CONFIG_DISPATCHER, MAIN_DISPATCHER, set_ev
 from os_ken.lib import hub
 from os_ken.ofproto import ofproto_v1_3
 
-from sdn_app.config import load_config
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdn_app.redundancy import RoleState
+from sdvisc.config import AppConfig, load_config
 from sdvisc.jsonlines import write_json_atomic
 
 CONFIG_ENV = "SDVISC_SDN_CONFIG"
@@ -42,7 +42,7 @@ class SdviscApp(app_manager.OSKenApp):
 
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
-        self.config = load_config(os.environ[CONFIG_ENV])
+        self.config = load_config(AppConfig, os.environ[CONFIG_ENV])
         now = time.time()
         self.logic = Controller(self.config, now=now)
         self.datapaths: dict[int, object] = {}
@@ -124,7 +124,7 @@ class SdviscApp(app_manager.OSKenApp):
             generation = self.roles.take_over()
             for dp in self.datapaths.values():
                 self._request_role(dp)
-            self.logic._event(now, "controller_takeover", instance=self.instance, generation=generation,
+            self.logic.event(now, "controller_takeover", instance=self.instance, generation=generation,
                               t_last_peer=self.roles.t_peer)
             self._flush_events()
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import networkx as nx
 
-from sdn_app.config import TopologyInfo
+from sdvisc.config import TopologyInfo
 
 
 def build_graph(topology: TopologyInfo) -> nx.Graph:

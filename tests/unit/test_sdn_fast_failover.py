@@ -76,7 +76,7 @@ def walk(ctl, flows, groups, src_host, dst_host, down: set, max_hops=20):
 ])
 def test_every_protected_link_failure_is_bypassed_in_the_data_plane(topo, params, wt):
     desc = describe(topos[topo](**params))
-    from sdn_app.config import AppConfig
+    from sdvisc.config import AppConfig
 
     ctl = Controller(AppConfig.model_validate({"topology": desc, "backup_sdc": None, "fast_failover": True}), 0.0)
     owfcc = ctl.config.topology.hosts["owfcc"].model_dump()

@@ -10,10 +10,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from sdn_app import flows as fl
-from sdn_app.config import AppConfig
 from sdn_app.liveness import ALIVE_AFTER, SdcLiveness
 from sdn_app.logic import Controller
 from sdvisc import wire
+from sdvisc.config import AppConfig
 from tests.unit.test_sdn_logic import decode_out, frame, ingress, is_learn, make_config, request
 from topologies import topos
 from topologies.base import describe

@@ -9,12 +9,12 @@ from os_ken.lib.packet import ethernet, ipv4, packet, udp
 from os_ken.ofproto import ofproto_v1_3, ofproto_v1_3_parser
 
 from sdn_app import flows as fl
-from sdn_app.config import AppConfig
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdn_app.paths import build_graph, choose_path
 from sdn_app.tables import TableError, Tables, TurbineAddress, TwoDigit
 from sdvisc import wire
+from sdvisc.config import AppConfig
 from topologies import topos
 from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, describe
 

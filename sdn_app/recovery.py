@@ -1,0 +1,112 @@
+"""Dynamic routing and partitions: the app's reaction when a ViSC turbine loses its control
+packets (``DR_i``, confirmed by :mod:`sdn_app.dr`), when a link of a path goes down or comes up,
+and when no path is left. Pure: each call takes ``now`` and returns :mod:`sdn_app.flows` actions.
+
+* **DR**: reroute around the failure — avoid links known down (port status), else take a path
+  link-disjoint from the current one (the two host links excepted); with dynamic routing off, log
+  ``dr_not_acted`` only (the paper's "without DR").
+* **Partition**: no path → one ``no_path`` event, T3 ``x/0``, nothing retried until a link comes up;
+  then the path is installed again (``path_restored``) and the turbine re-engaged.
+"""
+
+from __future__ import annotations
+
+from sdn_app.messages import Messenger
+from sdn_app.paths import link_key, path_links
+from sdn_app.routing import Routing
+from sdn_app.state import SdnState
+
+
+class Recovery:
+    """See the module docstring."""
+
+    def __init__(self, state: SdnState, routing: Routing, messenger: Messenger) -> None:
+        self.state = state
+        self.routing = routing
+        self.messenger = messenger
+        self.partitioned: dict[str, float] = {}  # turbines with no path to their SDC, since (t_loss)
+
+    def on_dr(self, due: list[tuple[str, float]], now: float) -> list:
+        """Act on the turbines whose DR is confirmed."""
+        st = self.state
+        actions: list = []
+        for name, t_loss in due:
+            if st.config.dynamic_routing:
+                actions += self.reroute(name, "dr", now, t_loss=t_loss)
+            else:
+                st.tables.set_comm(name, comm_on=False)
+                st.event(now, "dr_not_acted", wt=name, t_loss=t_loss, reason="dynamic routing off")
+        return actions
+
+    def on_link(self, key: frozenset, up: bool, now: float) -> list:
+        """A link changed state: relearn L2 switches (fast failover), reroute at once on port status
+        if configured, heal partitions when a link comes up."""
+        st = self.state
+        actions: list = []
+        if not up and st.config.fast_failover:
+            actions += self.routing.relearn_behind_l2(key, now)
+        if not up and st.config.reroute_on_port_status:
+            for name, active in list(st.paths.items()):
+                if key in path_links(active.path) and name not in self.partitioned:
+                    actions += self.reroute(name, "port_status", now, t_loss=None)
+        if up:
+            actions += self.heal(now)
+        return actions
+
+    def reroute(self, name: str, cause: str, now: float, t_loss: float | None) -> list:
+        st = self.state
+        active = st.paths[name]
+        current = set(path_links(active.path))
+        known_bad = current & st.down_links
+        host_links = {link_key(active.path[0], active.path[1]), link_key(active.path[-2], active.path[-1])}
+        avoid = frozenset() if known_bad else frozenset(current - host_links)
+        new_path = st.path_to(active.sdc, name, avoid=avoid)
+        if new_path is None and avoid:
+            candidate = st.path_to(active.sdc, name)
+            new_path = candidate if candidate != active.path else None
+        st.dr.start(name, now)
+        if new_path is None:
+            return self._no_path(name, cause, now, t_loss)
+        actions = self.routing.install(name, active.sdc, new_path, now)
+        st.tables.set_comm(name, link_ok=True)
+        st.counters[f"reroute_{cause}"] += 1
+        st.event(now, cause, wt=name, t_loss=t_loss, t_detect=now, old_path=active.path, new_path=new_path,
+                 avoided="known down links" if known_bad else "current path (link-disjoint)")
+        return actions
+
+    def _no_path(self, name: str, cause: str, now: float, t_loss: float | None) -> list:
+        """No path to the turbine's SDC: reported once, T3 x/0; the turbine falls back on its own
+        (as without DR) and nothing is retried until the topology changes (:meth:`heal`)."""
+        st = self.state
+        if name not in self.partitioned:
+            self.partitioned[name] = t_loss if t_loss is not None else now
+            st.tables.set_comm(name, comm_on=False, link_ok=False)
+            st.counters["no_path"] += 1
+            st.event(now, "no_path", wt=name, cause=cause, t_loss=t_loss, t_detect=now,
+                     down_links=sorted(sorted(k) for k in st.down_links))
+        return []
+
+    def heal(self, now: float) -> list:
+        """A link came up: give every partitioned turbine a path if one exists now."""
+        st = self.state
+        actions: list = []
+        for name, t_loss in sorted(self.partitioned.items()):
+            active = st.paths.get(name)
+            if active is None or name not in st.tables.t1:
+                self.partitioned.pop(name)
+                continue
+            path = st.path_to(active.sdc, name)
+            if path is None:
+                continue
+            self.partitioned.pop(name)
+            actions += self.routing.install(name, active.sdc, path, now)
+            st.tables.set_comm(name, link_ok=True)
+            st.dr.start(name, now)
+            st.counters["path_restored"] += 1
+            st.event(now, "path_restored", wt=name, t_loss=t_loss, t_detect=now, new_path=path)
+            actions += self.messenger.reengage(name, active.sdc, now)
+        return actions
+
+    def forget(self, name: str) -> None:
+        """The turbine left ViSC (or the network): no partition to heal for it."""
+        self.partitioned.pop(name, None)

@@ -1,0 +1,162 @@
+"""Paths and their flows: install (make before break), delete, mirror to the backup SDC, guard
+the turbine's ingress, protect with fast-failover groups. Pure: each call returns
+:mod:`sdn_app.flows` actions."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+from sdn_app import flows as fl
+from sdn_app.messages import Messenger
+from sdn_app.paths import hops, link_key, path_links
+from sdn_app.protection import protect_direction
+from sdn_app.state import ActivePath, SdnState
+
+
+class Routing:
+    """See the module docstring. ``is_dead`` tells whether an SDC is declared dead: no
+    measurements are mirrored to a dead backup."""
+
+    def __init__(self, state: SdnState, messenger: Messenger, is_dead: Callable[[str], bool]) -> None:
+        self.state = state
+        self.messenger = messenger
+        self.is_dead = is_dead
+        self.group_ids: dict[int, int] = {}
+        self.t_flow_change = float("-inf")
+
+    # ------------------------------------------------------------------ flows of a path
+    def flows_for(self, active: ActivePath) -> list:
+        st = self.state
+        wt_ip = st.tables.t1[active.wt].ip
+        if active.sdc == st.config.primary_sdc:
+            flows = fl.path_flows(hops(st.graph, active.path), st.dpids, st.host(active.sdc).ip, wt_ip, active.cookie)
+            flows = self._guard_ingress(active, flows)
+            return self._protect(active, flows + self._mirror_flows(active, flows))
+        # served by a substitute SDC while addressing the primary's address
+        return self._guard_ingress(active, fl.substitute_path_flows(
+            hops(st.graph, active.path), st.dpids, st.addr(active.sdc), wt_ip,
+            st.addr(st.config.primary_sdc), active.cookie))
+
+    def _next_group_id(self, dpid: int) -> int:
+        self.group_ids[dpid] = self.group_ids.get(dpid, 0) + 1
+        return self.group_ids[dpid]
+
+    def _protect(self, active: ActivePath, flows: list) -> list:
+        """With ``fast_failover``: FF groups and detour flows for both directions of the path;
+        returns group adds first (flows refer to them), then the flows."""
+        st = self.state
+        if not st.config.fast_failover:
+            return flows
+        sdc_ip, wt_ip = st.host(active.sdc).ip, st.tables.t1[active.wt].ip
+        path = active.path if active.path[0] == active.sdc else list(reversed(active.path))
+        groups, detours, out = [], [], list(flows)
+        for direction, (src, dst) in ((path, (sdc_ip, wt_ip)), (list(reversed(path)), (wt_ip, sdc_ip))):
+            replace, g, d = protect_direction(st.graph, st.dpids, direction, fl.udp_match(src, dst),
+                                              active.cookie, st.down_links, self._next_group_id)
+            groups += g
+            detours += d
+            by_dpid = {st.dpids[x]: acts for x, acts in replace.items()}
+            for k, f in enumerate(out):
+                if (f.dpid in by_dpid and f.match.get("ipv4_src") == src and f.match.get("ipv4_dst") == dst
+                        and len(f.actions) == 1 and isinstance(f.actions[0], fl.Output)):
+                    out[k] = fl.FlowAdd(f.dpid, f.priority, f.match, by_dpid[f.dpid], f.cookie)
+        active.groups = [(g.dpid, g.group_id) for g in groups]
+        st.counters["ff_groups"] += len(groups)
+        return groups + out + detours
+
+    def _guard_ingress(self, active: ActivePath, flows: list) -> list:
+        """Access control: on the OpenFlow switch where the turbine's packets enter, its upstream
+        flow also matches the T1-registered MAC and ingress port, so a host spoofing its IP (or
+        any other host) reaches only the table miss, where it is counted and dropped."""
+        st = self.state
+        path = active.path if active.path[-1] == active.wt else list(reversed(active.path))
+        of_hops = hops(st.graph, path)
+        if not of_hops:
+            return flows
+        ingress, _, toward_wt = of_hops[-1]
+        row = st.tables.t1[active.wt]
+        guarded = []
+        for f in flows:
+            if f.dpid == st.dpids[ingress] and f.match.get("ipv4_src") == row.ip:
+                f = fl.FlowAdd(f.dpid, f.priority, {**f.match, "in_port": toward_wt, "eth_src": row.mac},
+                               f.actions, f.cookie)
+            guarded.append(f)
+        return guarded
+
+    def _mirror_flows(self, active: ActivePath, flows: list) -> list:
+        st = self.state
+        backup = st.config.backup_sdc
+        if not (backup and st.config.failover and st.config.mirror_to_backup) or self.is_dead(backup):
+            return []
+        primary_ip = st.host(active.sdc).ip
+        first_switch = active.path[1]
+        to_backup = st.path_to(first_switch, backup)
+        if to_backup is None or first_switch not in st.dpids:
+            return []
+        upstream = next((f for f in flows if f.dpid == st.dpids[first_switch] and f.match["ipv4_dst"] == primary_ip),
+                        None)
+        if upstream is None:
+            return []
+        hop_list = [(to_backup[0], 0, st.graph.edges[to_backup[0], to_backup[1]]["ports"][to_backup[0]])]
+        hop_list += hops(st.graph, to_backup)
+        mirrored = fl.mirror_flows(hop_list, st.dpids, upstream, st.addr(backup), st.tables.t1[active.wt].ip,
+                                   active.cookie)
+        # the mirror flow replaces the plain upstream flow on the first switch (same match, same priority)
+        flows.remove(upstream)
+        return mirrored
+
+    # ------------------------------------------------------------------ install and remove
+    def install(self, name: str, sdc: str, path: list[str], now: float) -> list:
+        """Install (or move) a turbine's path: new flows first, under a new cookie version, then
+        the old version's flows are deleted (make before break; on switches both paths share, the
+        new flow overwrites the old one in place)."""
+        st = self.state
+        old = st.paths.get(name)
+        version = old.reroutes + 1 if old is not None else 0
+        active = ActivePath(name, sdc, path, now, fl.turbine_cookie(st.wid(name), version),
+                            params=old.params if old is not None else {})
+        flows = self.flows_for(active)
+        active.installed = flows
+        active.dpids = sorted({f.dpid for f in flows if isinstance(f, fl.FlowAdd)})
+        active.reroutes = version
+        st.paths[name] = active
+        self.t_flow_change = now
+        st.counters["flow_mods"] += sum(isinstance(f, fl.FlowAdd) for f in flows)
+        actions = flows + self.messenger.learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
+        if old is not None:
+            actions += self._delete(old)
+        return actions
+
+    def _delete(self, active: ActivePath) -> list:
+        self.state.counters["flow_deletes"] += len(active.dpids)
+        return ([fl.FlowDelete(dpid, active.cookie) for dpid in active.dpids]
+                + [fl.GroupDelete(dpid, gid) for dpid, gid in active.groups])
+
+    def remove(self, name: str) -> list:
+        active = self.state.paths.pop(name, None)
+        return [] if active is None else self._delete(active)
+
+    def flows_on(self, dpid: int) -> list:
+        """Every installed path's flows and groups on switch ``dpid`` (it reconnected)."""
+        return [f for active in self.state.paths.values() for f in active.installed if f.dpid == dpid]
+
+    def relearn_behind_l2(self, key: frozenset, now: float) -> list:
+        """Fast failover cannot teach a non-OpenFlow switch that the SDC is now behind another
+        uplink (it keeps sending the turbine's packets into the dead one, and without those packets
+        no answer comes back to teach it). When such an uplink of an active path goes down, send a
+        learning frame with the SDC's MAC in through every other live uplink: the switch moves the
+        SDC there, and the entry detours carry the turbine's packets on."""
+        st = self.state
+        l2 = next((n for n in key if n not in st.dpids and n in st.config.topology.switches), None)
+        if l2 is None:
+            return []
+        actions: list = []
+        for name, active in st.paths.items():
+            if key not in path_links(active.path):
+                continue
+            for z in sorted(st.graph.neighbors(l2)):
+                if z not in st.dpids or link_key(l2, z) in st.down_links:
+                    continue
+                actions += self.messenger.learn_frames([z, l2, name], active.sdc)
+            st.event(now, "ff_relearn", wt=name, l2=l2, link=sorted(key))
+        return actions

@@ -1,0 +1,178 @@
+"""One configuration schema for every process of the testbed (pydantic), one error type.
+
+The scenario runner derives each process's configuration from the scenario (scenarios/schema.py)
+and writes it as JSON with :func:`write_config`; each process reads it with :func:`load_config`.
+Both ends validate against the same model here: an unknown key, a missing one, a wrong type or a
+value out of range is a :class:`ConfigError` naming the file, the key and what was expected — at
+the runner before a process starts, and again at the process. Defaults live here and nowhere
+else (no ``cfg.get(key, default)`` in the services).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Literal, TypeVar
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from sdvisc.vocabulary import TURBINE_PATTERN
+
+CONTROLLER_VIP = "10.0.0.254"
+"""The SDN application's virtual IP address (packets to it reach the controller as packet-ins)."""
+CONTROLLER_VMAC = "02:00:00:00:00:fe"
+"""The SDN application's virtual MAC address."""
+
+
+class ConfigError(ValueError):
+    """A process configuration that cannot be used; the message names the file, key and problem."""
+
+
+class _Config(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+
+
+class ServiceBase(_Config):
+    """What every network service of the testbed needs."""
+
+    step_s: float = Field(gt=0, le=0.1, description="sampling period Ts, s")
+    controller_vip: str = Field(CONTROLLER_VIP, description="the SDN app's virtual IP address")
+    header: bool = Field(True, description="GTNET packets carry the VILLASnode 3-word header")
+    out_dir: str = Field(description="where the process writes its ready file, statistics and events")
+    realtime_priority: bool = Field(True, description="run at SCHED_FIFO where allowed")
+
+
+class SdcConfig(ServiceBase):
+    """``python -m sdc_unit.service``."""
+
+    sdc_id: int = Field(1, ge=1, le=255)
+    role: Literal["primary", "backup"] = "primary"
+    standby: Literal["latest", "track"] = Field(
+        "latest", description="backup warm state: track = step on every mirrored sample; latest = initialise at take-over")
+    bind_ip: str = "0.0.0.0"
+    capacity: int = Field(64, ge=1, le=4096, description="turbines one SDC can serve")
+    method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
+    dtype: Literal["float64", "float32"] = "float64"
+
+
+class TurbineEndpoint(_Config):
+    """One turbine's network endpoint in the plant process."""
+
+    name: str = Field(pattern=TURBINE_PATTERN)
+    wid: int = Field(ge=101)
+    ip: str
+    pid: int | None = Field(None, description="a process in the turbine's network namespace (None: this one)")
+
+
+class PlantConfig(ServiceBase):
+    """``python -m plant.service``."""
+
+    duration_s: float = Field(gt=0, le=3600)
+    turbines: list[TurbineEndpoint]
+    model: Literal["minimal", "full"] = "minimal"
+    record: list[str] = Field(default_factory=list, description="turbines whose signals go to timeseries.csv")
+    record_every: int = Field(15, ge=1)
+    ak_period_s: float = Field(0.01, gt=0, le=1.0)
+    ak_window_s: float = Field(0.01, gt=0, le=1.0)
+    remote_loss_fallback_s: float = Field(0.1, gt=0)
+    remote_apply: Literal["i_ref", "v_ref"] = "i_ref"
+    report_loss_after_s: float | None = Field(None, gt=0, description="send an AK at once when a loss lasts this long")
+    check_rx_source: bool = Field(True, description="accept CTRL only from the SDC, REQUEST only from the SDN app")
+    stdin_commands: bool = Field(True, description="read timeline commands (JSON lines) on stdin")
+    t0_wall: float | None = Field(None, description="wall time of t = 0 (None: set at start-up)")
+    start_margin_s: float | None = Field(None, ge=0, description="t = 0 this long after the model is ready")
+
+
+class OwfccConfig(ServiceBase):
+    """``python -m sdvisc.owfcc``."""
+
+    retry_s: float = Field(0.2, gt=0, description="resend an unanswered request after this long")
+    max_tries: int = Field(3, ge=1)
+
+
+class SwitchInfo(_Config):
+    dpid: int
+    openflow: bool = True
+
+
+class HostInfo(_Config):
+    ip: str
+    mac: str
+    role: str
+    switch: str
+    port: int
+    cluster: int | None = None
+    number: int | None = None
+
+
+class LinkInfo(_Config):
+    a: str
+    a_port: int
+    b: str
+    b_port: int
+
+
+class TopologyInfo(_Config):
+    """A built topology as the processes see it (``topologies.base.describe``)."""
+
+    switches: dict[str, SwitchInfo]
+    hosts: dict[str, HostInfo]
+    links: list[LinkInfo]
+
+
+class AppConfig(_Config):
+    """``python -m sdn_app``: what the SDN application needs to know at start."""
+
+    topology: TopologyInfo
+    controller_vip: str = CONTROLLER_VIP
+    controller_vmac: str = CONTROLLER_VMAC
+    owfcc: str = "owfcc"
+    primary_sdc: str = "sdc1"
+    backup_sdc: str | None = "sdc2"
+    visc_disabled: list[str] = Field(default_factory=list, description="turbines whose ViSC is not enabled (T2 x/0)")
+    dr_hold_s: float = Field(0.040, gt=0, description="hold before DR_i is confirmed, s (paper: 40 ms)")
+    ak_timeout_s: float = Field(0.030, gt=0, description="no AK for this long counts as AK = 0, s")
+    dynamic_routing: bool = Field(True, description="act on DR_i by rerouting (false: detect and log only)")
+    fast_failover: bool = Field(False, description="pre-install fast-failover groups with detours (data-plane repair)")
+    reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
+    failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
+    sdc_dead_s: float = Field(0.030, gt=0, description="an SDC is dead after this long without a heartbeat, s")
+    mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
+    state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
+    header: bool = Field(True, description="GTNET packets carry the VILLAS 3-word header")
+
+
+C = TypeVar("C", bound=BaseModel)
+
+
+def _explain(path: str | Path, exc: ValidationError) -> str:
+    lines = []
+    for err in exc.errors():
+        where = ".".join(str(p) for p in err["loc"]) or "(top level)"
+        msg = "unknown key (not allowed here)" if err["type"] == "extra_forbidden" else err["msg"]
+        lines.append(f"{path}: {where}: {msg}")
+    return "\n".join(lines)
+
+
+def parse_config(model: type[C], data: dict, source: str | Path = "<config>") -> C:
+    """Validate ``data`` as ``model``; :class:`ConfigError` listing every problem otherwise."""
+    try:
+        return model.model_validate(data)
+    except ValidationError as exc:
+        raise ConfigError(_explain(source, exc)) from exc
+
+
+def load_config(model: type[C], path: str | Path) -> C:
+    """Read and validate a process configuration file."""
+    try:
+        raw = json.loads(Path(path).read_text())
+    except (OSError, json.JSONDecodeError) as exc:
+        raise ConfigError(f"{path}: cannot read JSON config: {exc}") from exc
+    return parse_config(model, raw, path)
+
+
+def write_config(config: BaseModel, path: str | Path) -> Path:
+    """Write a validated configuration as JSON (what :func:`load_config` reads back)."""
+    path = Path(path)
+    path.write_text(config.model_dump_json(indent=1))
+    return path

@@ -1,0 +1,54 @@
+"""The testbed's shared words, each written once: what a measurement and a control output are made
+of, the ViSC parameters a request can set, turbine names, and the constants every model uses.
+
+The wire layouts (:data:`sdvisc.wire.LAYOUTS`) are the source: the tuples here are read from them,
+so a field added to a message appears everywhere it is used. Import from here, never repeat a list.
+"""
+
+from __future__ import annotations
+
+import math
+
+from sdvisc.wire import LAYOUTS, MsgType, ParamMask
+
+MEAS_FIELDS: tuple[str, ...] = tuple(f.name for f in LAYOUTS[MsgType.MEAS] if f.kind == "f32" and f.name != "t_sim")
+"""What a turbine measures, in wire order: ``v_d, v_q, i_d, i_q, p, q, v_dc, omega_meas`` (p.u.)."""
+
+CTRL_OUTPUTS: tuple[str, ...] = tuple(f.name for f in LAYOUTS[MsgType.CTRL] if f.kind == "f32")
+"""What a controller answers, in wire order: ``v_ref_d, v_ref_q, i_ref_d, i_ref_q, delta, omega, e_mag``."""
+
+REMOTE_REFERENCES: tuple[str, ...] = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q")
+"""The part of a control output a remote turbine applies (voltage or current reference)."""
+
+VISC_PARAMS: dict[str, int] = {m.name.lower(): int(m) for m in ParamMask}
+"""ViSC parameters a REQUEST can set, by name, with their ``mask`` bit: h, d, m_q, v_ref, q_ref, supp."""
+
+REQUEST_PARAM_WORDS: tuple[str, ...] = ("mask", *VISC_PARAMS)
+"""The REQUEST words that carry parameters (the mask, then each parameter)."""
+
+TURBINE_PATTERN = r"^wt[1-9]\d*_[1-9]\d?$"
+"""A turbine name: ``wt<cluster>_<number>`` (cluster ≥ 1, number 1–99); see :func:`sdvisc.wire.parse_turbine`."""
+
+F_NOMINAL_HZ = 50.0
+"""Nominal grid frequency, Hz."""
+OMEGA0 = 2.0 * math.pi * F_NOMINAL_HZ
+"""Nominal angular frequency, rad/s."""
+
+FILTER_R_F_PU = 0.003
+"""Grid-side filter resistance of a turbine's converter, p.u. on the turbine rating."""
+FILTER_X_F_PU = 0.08
+"""Grid-side filter reactance (ω0·L_f) of a turbine's converter, p.u. on the turbine rating."""
+
+
+def params_from_mask(values: dict) -> dict[str, float]:
+    """The ViSC parameters a REQUEST marks as meaningful (``mask`` bits), by name."""
+    mask = int(values.get("mask", 0))
+    return {name: values[name] for name, bit in VISC_PARAMS.items() if mask & bit}
+
+
+def mask_of(params: dict) -> int:
+    """The ``mask`` word for a dict of parameters by name (unknown names raise KeyError)."""
+    mask = 0
+    for name in params:
+        mask |= VISC_PARAMS[name]
+    return mask
