@@ -116,6 +116,7 @@ class Run:
                    "reroute_on_port_status": sc.sdn.reroute_on_port_status, "failover": sc.sdn.failover,
                    "fast_failover": sc.sdn.fast_failover,
                    "sdc_dead_s": sc.sdn.sdc_dead_s, "mirror_to_backup": sc.sdn.mirror_to_backup,
+                   "turbine_fallback_s": sc.plant.remote_loss_fallback_s,
                    "backup_sdc": "sdc2" if sc.sdc.backup else None, "state_dir": str(self.out)}
         cfg_path = self._write_json("sdn_config.json", app_cfg)
         app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]

@@ -67,11 +67,17 @@ class Recovery:
         st.dr.start(name, now)
         if new_path is None:
             return self._no_path(name, cause, now, t_loss)
+        streak = st.dr.tracks[name].streak if name in st.dr.tracks else 0
         actions = self.routing.install(name, active.sdc, new_path, now)
         st.tables.set_comm(name, link_ok=True)
         st.counters[f"reroute_{cause}"] += 1
+        # a loss longer than the turbine's fallback time left it on its own control and the SDC's
+        # instance running open loop; a repeated DR says the path was not the problem: start both again
+        reengage = streak > 1 or (t_loss is not None and now - t_loss >= st.config.turbine_fallback_s)
         st.event(now, cause, wt=name, t_loss=t_loss, t_detect=now, old_path=active.path, new_path=new_path,
-                 avoided="known down links" if known_bad else "current path (link-disjoint)")
+                 avoided="known down links" if known_bad else "current path (link-disjoint)", reengaged=reengage)
+        if reengage:
+            actions += self.messenger.reengage(name, active.sdc, now)
         return actions
 
     def _no_path(self, name: str, cause: str, now: float, t_loss: float | None) -> list:

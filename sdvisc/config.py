@@ -138,6 +138,8 @@ class AppConfig(_Config):
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
     sdc_dead_s: float = Field(0.030, gt=0, description="an SDC is dead after this long without a heartbeat, s")
     mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
+    turbine_fallback_s: float = Field(0.1, gt=0, description="a remote turbine without control packets for this "
+                                      "long falls back to its own control (plant.remote_loss_fallback_s)")
     state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
     header: bool = Field(True, description="GTNET packets carry the VILLAS 3-word header")
 

@@ -255,3 +255,24 @@ def test_packet_in_never_raises_on_mutated_messages(which, sender, flips, cut, e
     ctl.packet_in(*where, frame(host, payload), now=1.1)
     ctl.tick(1.2)
     assert sum(ctl.counters.values()) > before  # counted: used (requests, ak_rx, heartbeats, ...) or dropped
+
+
+def test_a_dr_after_the_turbine_fell_back_reengages_it():
+    """A loss longer than the turbine's fallback time (it is on its own control, the SDC's instance
+    ran open loop): the reroute also starts the SDC instance and the turbine's stream again."""
+    ctl = Controller(make_config(backup_sdc=None, turbine_fallback_s=0.1), now=0.0)
+    _visc_on(ctl, now=1.0)
+    _ak(ctl, "wt1_1", 1, 1, 0.0, 1.6)
+    for k in range(1, 6):
+        _hb(ctl, "sdc1", k, 1.6 + 0.01 * k)
+    _ak(ctl, "wt1_1", 2, 0, 0.030, 1.63)
+    short = ctl.tick(1.64)
+    assert short == []
+    _ak(ctl, "wt1_1", 3, 0, 0.041, 1.641)
+    first = ctl.tick(1.642)  # a 41 ms loss: reroute only
+    cmds = [decode_out(a)[2]["cmd"] for a in first if isinstance(a, fl.PacketOut) and not is_learn(a)]
+    assert any(isinstance(a, fl.FlowAdd) for a in first) and cmds == []
+    _ak(ctl, "wt1_1", 4, 0, 0.160, 1.76)  # the loss goes on for 160 ms: the turbine has fallen back
+    second = ctl.tick(1.761)
+    cmds = {decode_out(a)[2]["cmd"] for a in second if isinstance(a, fl.PacketOut) and not is_learn(a)}
+    assert cmds == {wire.Command.START_INSTANCE, wire.Command.STREAM_START}
