@@ -4,7 +4,7 @@ Usage: .venv/bin/python benchmarks/sdc_full_plant.py [--figure PATH]   (~1 min)
 Prints one JSON object: per variant (delay in samples, dtype, method) the RMS deviation from the
 hardware-dependent ViSC and RMS / range of the HD trace [%] of |V_pcc|, Q, delta and E (worst of
 the four ViSC turbines), and writes a figure (default docs/figures/sdc_full_plant_fault.png).
-See sdc_unit/cosim.py for the set-up.
+See plant/cosim.py for the set-up.
 """
 
 from __future__ import annotations
@@ -19,7 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from sdc_unit.cosim import FaultCase, compare, run_hd, run_sdc  # noqa: E402
+from plant.cosim import FaultCase, compare, run_hd, run_sdc  # noqa: E402
 
 VARIANTS = [("tustin", "float64", 0), ("tustin", "float64", 1), ("tustin", "float64", 3),
             ("tustin", "float32", 0), ("euler", "float64", 0)]

@@ -24,7 +24,8 @@ import cmath
 
 import numpy as np
 
-from plant.params import OMEGA0, CondenserParams
+from plant.params import CondenserParams
+from sdvisc.vocabulary import OMEGA0
 
 DELTA, OMEGA, EQ1, EQ2, ED2, XLL, EFD = range(7)
 NX = 7

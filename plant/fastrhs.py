@@ -27,7 +27,7 @@ import numpy as np
 from plant import turbine as T
 from plant.condenser import DELTA, ED2, EQ2
 from plant.condenser import NX as SC_NX
-from plant.params import OMEGA0
+from sdvisc.vocabulary import OMEGA0
 
 _max = np.maximum.reduce
 # rows of the feature array F; CUR (turbine currents) must be the last one

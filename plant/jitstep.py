@@ -35,7 +35,7 @@ from numba import njit
 from plant import turbine as T
 from plant.condenser import DELTA, ED2, EFD, EQ1, EQ2, OMEGA, XLL
 from plant.condenser import NX as SC_NX
-from plant.params import OMEGA0
+from sdvisc.vocabulary import OMEGA0
 
 NS = T.NS
 IF, XI, TH, XP, W, XD, WR, B, XB = T.IF, T.XI, T.TH, T.XP, T.W, T.XD, T.WR, T.B, T.XB

@@ -18,14 +18,15 @@ from __future__ import annotations
 
 import numpy as np
 
-OMEGA0 = 2 * np.pi * 50.0
+from sdvisc.vocabulary import F_NOMINAL_HZ, FILTER_R_F_PU, FILTER_X_F_PU, OMEGA0
+
 MODES = ("grid_following", "remote")
 
 
 class MinimalPlant:
     """N turbines on an infinite bus; per-unit on the turbine rating, common synchronous frame."""
 
-    def __init__(self, n_turbines: int, step_s: float = 0.67e-3, *, l_f: float = 0.08, r_f: float = 0.003,
+    def __init__(self, n_turbines: int, step_s: float = 0.67e-3, *, l_f: float = FILTER_X_F_PU, r_f: float = FILTER_R_F_PU,
                  p_ref: float = 0.8, remote_loss_fallback_s: float = 0.1, remote_apply: str = "i_ref",
                  v_conv_max: float = 1.3, trip_current: float = 2.0, k_current: float = 0.5) -> None:
         if remote_apply not in ("i_ref", "v_ref"):
@@ -115,5 +116,5 @@ class MinimalPlant:
 
     def outputs(self) -> dict[str, np.ndarray | float]:
         m = self.measurements()
-        return {"t": self.t, "v_pcc": abs(self.v_grid), "f_pcc": 50.0, "p": m["p"], "q": m["q"],
+        return {"t": self.t, "v_pcc": abs(self.v_grid), "f_pcc_hz": F_NOMINAL_HZ, "p": m["p"], "q": m["q"],
                 "i_mag": np.abs(self.i), "mode": self.mode.copy()}

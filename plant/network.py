@@ -39,7 +39,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
-from plant.params import OMEGA0, PlantParams
+from plant.params import PlantParams
+from sdvisc.vocabulary import OMEGA0
 
 
 def _par(*zs: complex) -> complex:

@@ -12,11 +12,9 @@ voltages of each bus, so a voltage in p.u. is the same number on every power bas
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
-OMEGA0 = 2.0 * math.pi * 50.0
-"""Nominal angular frequency of the common synchronous frame, rad/s [paper: 50 Hz]."""
+from sdvisc.vocabulary import FILTER_R_F_PU, FILTER_X_F_PU
 
 
 @dataclass
@@ -96,9 +94,9 @@ class TurbineParams:
     """Turbine rating, MVA (= MW at unity pf) [paper]."""
     v_rated_kv: float = 0.69
     """Converter terminal voltage, kV [brief]."""
-    lf: float = 0.08
+    lf: float = FILTER_X_F_PU
     """Filter inductance, p.u. [src: D'Arco, Suul, Fosso EPSR 2015]."""
-    rf: float = 0.003
+    rf: float = FILTER_R_F_PU
     """Filter resistance, p.u. [src: D'Arco 2015]."""
     cf: float = 0.074
     """Filter capacitance (shunt at the terminal, quasi-static), p.u. [src: D'Arco 2015]."""

@@ -24,8 +24,7 @@ class Recorder:
         if k % self.every:
             return
         out = model.outputs()
-        f_hz = out["f_pcc_hz"] if "f_pcc_hz" in out else out["f_pcc"]
-        row = [f"{out['t']:.6f}", f"{float(out['v_pcc']):.6f}", f"{float(f_hz):.6f}"]
+        row = [f"{out['t']:.6f}", f"{float(out['v_pcc']):.6f}", f"{float(out['f_pcc_hz']):.6f}"]
         for ep in self.endpoints:
             i = ep.index
             row += [f"{out['p'][i]:.5f}", f"{out['q'][i]:.5f}", f"{out['i_mag'][i]:.5f}", int(out["mode"][i]),

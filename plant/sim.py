@@ -22,7 +22,8 @@ from plant.condenser import Condenser
 from plant.fastrhs import FastRHS
 from plant.jitstep import JitPath
 from plant.network import Network
-from plant.params import OMEGA0, PlantParams
+from plant.params import PlantParams
+from sdvisc.vocabulary import F_NOMINAL_HZ, OMEGA0
 
 _LAW_INIT_NAMES = ("initial_state", "init_state", "steady_state", "init")
 
@@ -380,7 +381,7 @@ class Plant:
             visc_e[self.visc_idx] = np.asarray(_get(lo, "e_mag"))
         return {
             "t": self.t,
-            "v_pcc": abs(V[net.pcc]), "f_pcc": float(aux["f_pcc"]), "v_os": abs(V[net.os_mv]),
+            "v_pcc": abs(V[net.pcc]), "f_pcc_hz": F_NOMINAL_HZ * float(aux["f_pcc"]), "v_os": abs(V[net.os_mv]),
             "v_sc": abs(V[net.sc]), "f_grid": float(self.X[self.o_g + 1].real),
             "p_grid": s_grid.real, "q_grid": s_grid.imag,
             "p_wt": s_wt.real, "q_wt": s_wt.imag, "i_wt": np.abs(i),
@@ -393,7 +394,6 @@ class Plant:
             "p_me": aux["pme"], "losses": net.series_losses(V),
             # aliases shared with plant.minimal (used by plant.recorder)
             "p": s_wt.real, "q": s_wt.imag, "i_mag": np.abs(i), "mode": self.tb.mode.copy(),
-            "f_pcc_hz": 50.0 * float(aux["f_pcc"]),
         }
 
     # ================================================================== commands / events

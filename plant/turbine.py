@@ -48,7 +48,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant.params import OMEGA0, TurbineParams
+from plant.params import TurbineParams
+from sdvisc.vocabulary import OMEGA0
 
 IF, XI, TH, XP, W, XD, WR, B, XB = range(9)
 NS = 9

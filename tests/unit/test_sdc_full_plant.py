@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from sdc_unit.cosim import FaultCase, compare, run_hd, run_sdc
+from plant.cosim import FaultCase, compare, run_hd, run_sdc
 
 CASE = FaultCase()
 

@@ -20,6 +20,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from plant.sim import Plant
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
 
@@ -39,8 +40,6 @@ class FaultCase:
 
 
 def _plant(case: FaultCase):
-    from plant.sim import Plant  # noqa: PLC0415 - the plant imports sdc_unit.law
-
     plant = Plant(n_turbines=case.n_turbines, step_s=case.step_s)
     if plant.params.turbine.remote_apply != "v_ref":
         raise ValueError("the co-simulation needs TurbineParams.remote_apply == 'v_ref'")
