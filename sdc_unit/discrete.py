@@ -22,6 +22,7 @@ import numpy as np
 from . import law
 from .blocks import METHODS, make_first_order, make_pi, make_swing
 from .law import MEAS_FIELDS, Outputs
+from .law_kernels import circular_limit, qsem_current
 from .params import RUNTIME_PARAMS, ViscParams
 
 try:  # the compiled Tustin step; without numba the blocks are used (same results, slower)
@@ -63,7 +64,6 @@ class DiscreteVisc:
             raise ValueError("dtype must be float64 or float32")
         self.k = 0  # step counter; time = k * ts
         p, n, ts, dt = self.p, self.n, self.ts, self.dtype
-        self.dtype_params = _DtypeParams(p, dt)
         self.w0 = p.omega0
         # run-time parameters, one per instance
         self.rp = {name: np.full(n, float(getattr(p, name))) for name in RUNTIME_PARAMS}
@@ -257,8 +257,8 @@ class DiscreteVisc:
         u = self.avr.step(e, mask, lim_prev if p.avr_antiwindup else None)
         e_mag = u + c(p.e_ref) + vfr_app
         # quasi-stationary model and limiter
-        isd, isq = law.qsem_current(e_mag, delta, vfd, vfq, omega, self.dtype_params)
-        ild, ilq, limited = law.circular_limit(isd, isq, dt.type(p.i_max))
+        isd, isq = qsem_current(e_mag, delta, vfd, vfq, omega, dt.type(p.r_v), dt.type(p.l_v))
+        ild, ilq, limited = circular_limit(isd, isq, dt.type(p.i_max))
         # inner current loop
         lf = dt.type(p.l_f)
         ffd, ffq = (vfd, vfq) if p.ff_filtered else (m["v_d"], m["v_q"])
@@ -435,10 +435,3 @@ class _Rows(dict):
 
     matrix: np.ndarray | None = None
 
-
-class _DtypeParams:
-    """View of ViscParams with r_v and l_v cast to a dtype (keeps float32 arithmetic float32)."""
-
-    def __init__(self, p: ViscParams, dt):
-        self.r_v = dt.type(p.r_v)
-        self.l_v = dt.type(p.l_v)

@@ -2,7 +2,9 @@
 
 This module is the single definition of the law. The plant integrates it as the
 "hardware-dependent ViSC" ground truth (``derivatives`` / ``outputs``); :mod:`sdc_unit.discrete`
-implements the same equations with discretised blocks. Dependencies: numpy only.
+implements the same equations with discretised blocks. The quasi-stationary model and the circular
+limiter are written once, in :mod:`sdc_unit.law_kernels`, for this module, the discrete blocks and
+the compiled Tustin step alike. Dependencies: numpy only.
 
 Conventions (shared with the plant): per unit on the turbine rating, common frame rotating at
 omega0 = 2*pi*f_base, complex vectors x = x_d + j*x_q, converter current positive out of the
@@ -49,6 +51,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .law_kernels import circular_limit, qsem_current
 from .params import ViscParams
 
 STATE_NAMES = (
@@ -145,24 +148,6 @@ def friction_output(f_lpf, f_w1, f_w2, f_ll1, f_ll2, p: ViscParams):
     return vf, s1, o1
 
 
-def qsem_current(e_mag, delta, vf_d, vf_q, omega, p: ViscParams):
-    """Quasi-stationary electrical model i* = (E e^{j delta} - v_f)/(r_v + j omega l_v), returns (i_d, i_q)."""
-    ed = e_mag * np.cos(delta) - vf_d
-    eq = e_mag * np.sin(delta) - vf_q
-    r = p.r_v
-    x = omega * p.l_v
-    den = r * r + x * x
-    return (ed * r + eq * x) / den, (eq * r - ed * x) / den
-
-
-def circular_limit(i_d, i_q, i_max):
-    """Circular limiter: scale |i| to i_max keeping the angle. Returns (i_d, i_q, limited)."""
-    mag = np.hypot(i_d, i_q)
-    limited = mag > i_max
-    scale = np.where(limited, i_max / np.where(mag > 0, mag, 1), 1)
-    return i_d * scale, i_q * scale, limited
-
-
 def _algebra(x, meas, p: ViscParams):
     x = np.asarray(x, dtype=float)
     om_s = omega_s_of(meas, p)
@@ -174,7 +159,7 @@ def _algebra(x, meas, p: ViscParams):
     vfr, s1, o1 = friction_output(x[IX_FLPF], x[IX_FW1], x[IX_FW2], x[IX_FLL1], x[IX_FLL2], p)
     vfr_applied = np.where(np.asarray(p.supp, dtype=bool), vfr, 0.0)
     e_mag = p.k_pv * e_avr + x[IX_XIV] + p.e_ref + vfr_applied
-    isd, isq = qsem_current(e_mag, x[IX_DELTA], vfd, vfq, omega, p)
+    isd, isq = qsem_current(e_mag, x[IX_DELTA], vfd, vfq, omega, p.r_v, p.l_v)
     ild, ilq, limited = circular_limit(isd, isq, p.i_max)
     p_lim = meas.v_d * ild + meas.v_q * ilq
     p_e = np.where(limited, p_lim, meas.p)

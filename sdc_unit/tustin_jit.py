@@ -22,10 +22,14 @@ rounding, float64 and float32).
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 import math
 
 import numpy as np
 from numba import njit
+
+from . import law_kernels
 
 # rows of the state matrix X: (block, state) in DiscreteVisc order
 FIRST_ORDER_BLOCKS = ("lpf_d", "lpf_q", "f_lpf", "f_w1", "f_w2", "f_ll1", "f_ll2")
@@ -56,8 +60,13 @@ _AVR, _PI_D, _PI_Q = range(3)
 _SW = 2 * len(FIRST_ORDER_BLOCKS) + 2 * len(PI_BLOCKS)  # first swing row in X
 _SWC = 3 * len(FIRST_ORDER_BLOCKS) + 3 * len(PI_BLOCKS)  # first swing row in C
 
+# Only the entry point, tustin_step, is cached on disk (see _entry); the functions it calls are
+# compiled into it.
+_qsem_current = njit(law_kernels.qsem_current)
+_circular_limit = njit(law_kernels.circular_limit)
 
-@njit(cache=True)
+
+@njit
 def _fo(X, C, blk, i, u, new):
     """TustinFirstOrder: y = b0 u + b1 u(k-1) - a1 y(k-1); new states into ``new``."""
     y = C[3 * blk, i] * u + C[3 * blk + 1, i] * X[2 * blk, i] - C[3 * blk + 2, i] * X[2 * blk + 1, i]
@@ -66,7 +75,7 @@ def _fo(X, C, blk, i, u, new):
     return y
 
 
-@njit(cache=True)
+@njit
 def _pi(X, C, blk, i, e, hold, new):
     """TustinPI: y = y(k-1) + b0 e + b1 e(k-1), or y(k-1) + kp (e - e(k-1)) on hold."""
     row = 2 * len(FIRST_ORDER_BLOCKS) + 2 * blk
@@ -82,7 +91,7 @@ def _pi(X, C, blk, i, e, hold, new):
     return y
 
 
-@njit(cache=True)
+@njit
 def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
     one, zero, two, two_pi, sc_ts = K[0], K[1], K[2], K[3], K[4]
     p_ref, e_ref, i_max, l_f, r_v, l_v = K[5], K[6], K[7], K[8], K[9], K[10]
@@ -126,22 +135,9 @@ def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
     e = (R[0, i] - vmag) + R[1, i] * (R[2, i] - q)
     u = _pi(X, C, _AVR, i, e, F[2] != 0 and lim_prev, new)
     e_mag = u + e_ref + vfr_app
-    # quasi-stationary model and circular limiter
-    ed = e_mag * math.cos(dl) - vfd
-    eq = e_mag * math.sin(dl) - vfq
-    x = omega * l_v
-    den = r_v * r_v + x * x
-    isd = (ed * r_v + eq * x) / den
-    isq = (eq * r_v - ed * x) / den
-    mag = math.hypot(isd, isq)
-    limited = mag > i_max
-    if limited:
-        scale = i_max / (mag if mag > 0 else one)
-        ild = isd * scale
-        ilq = isq * scale
-    else:
-        ild = isd
-        ilq = isq
+    # quasi-stationary model and circular limiter (the law's own helpers, compiled)
+    isd, isq = _qsem_current(e_mag, dl, vfd, vfq, omega, r_v, l_v)
+    ild, ilq, limited = _circular_limit(isd, isq, i_max)
     # inner current loop
     ffd, ffq = (vfd, vfq) if F[3] != 0 else (v_d, v_q)
     out[0] = ffd - l_f * i_q + _pi(X, C, _PI_D, i, ild - i_d, False, new)
@@ -152,34 +148,47 @@ def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
     return limited
 
 
-@njit(cache=True)
-def tustin_step(X, C, K, F, M, R, MEM, mask, LAST, LIMITED, OK):
-    """Advance every turbine i with mask[i]: states X and memory MEM in place. Where the outputs
-    are finite, they are written to LAST[:, i] (float64) and LIMITED[i], and OK[i] is set; a
-    turbine outside the mask is not touched (OK[i] = False)."""
-    n = X.shape[1]
-    new = np.empty(X.shape[0], dtype=X.dtype)
-    mem = np.empty(MEM.shape[0], dtype=X.dtype)
-    out = np.empty(LAST.shape[0], dtype=X.dtype)
-    for i in range(n):
-        OK[i] = False
-        if not mask[i]:
-            continue
-        lim_last = MEM[0, i] > 0
-        limited = _evaluate(X, C, K, F, M, R, i, lim_last, MEM[1, i], MEM[2, i], new, mem, out)
-        if lim_last or limited:
-            limited = _evaluate(X, C, K, F, M, R, i, limited, mem[1], mem[2], new, mem, out)
-        X[:, i] = new
-        MEM[:, i] = mem
-        finite = True
-        for j in range(out.shape[0]):
-            if not np.isfinite(out[j]):
-                finite = False
-        if finite:
+def _entry(law_kernels_key: int):
+    """The compiled step, cached on disk by numba. numba stamps that cache with this file only, and
+    the step also compiles :mod:`sdc_unit.law_kernels`: a hash of that file's source is a closure
+    constant of the step, and numba's cache key includes the closure, so an edit there recompiles
+    the step instead of loading a stale one."""
+
+    @njit(cache=True)
+    def tustin_step(X, C, K, F, M, R, MEM, mask, LAST, LIMITED, OK):
+        """Advance every turbine i with mask[i]: states X and memory MEM in place. Where the outputs
+        are finite, they are written to LAST[:, i] (float64) and LIMITED[i], and OK[i] is set; a
+        turbine outside the mask is not touched (OK[i] = False)."""
+        n = X.shape[1]
+        if law_kernels_key == 0:  # never true: the reference puts the key into the closure (see _entry)
+            n = 0
+        new = np.empty(X.shape[0], dtype=X.dtype)
+        mem = np.empty(MEM.shape[0], dtype=X.dtype)
+        out = np.empty(LAST.shape[0], dtype=X.dtype)
+        for i in range(n):
+            OK[i] = False
+            if not mask[i]:
+                continue
+            lim_last = MEM[0, i] > 0
+            limited = _evaluate(X, C, K, F, M, R, i, lim_last, MEM[1, i], MEM[2, i], new, mem, out)
+            if lim_last or limited:
+                limited = _evaluate(X, C, K, F, M, R, i, limited, mem[1], mem[2], new, mem, out)
+            X[:, i] = new
+            MEM[:, i] = mem
+            finite = True
             for j in range(out.shape[0]):
-                LAST[j, i] = out[j]
-            LIMITED[i] = limited
-            OK[i] = True
+                if not np.isfinite(out[j]):
+                    finite = False
+            if finite:
+                for j in range(out.shape[0]):
+                    LAST[j, i] = out[j]
+                LIMITED[i] = limited
+                OK[i] = True
+
+    return tustin_step
+
+
+tustin_step = _entry(int(hashlib.sha256(inspect.getsource(law_kernels).encode()).hexdigest()[:15], 16))
 
 
 def precompile() -> None:

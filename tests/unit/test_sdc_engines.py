@@ -7,12 +7,14 @@ deactivation and re-initialisation, warm-standby tracking of one instance, float
 
 from __future__ import annotations
 
+import hashlib
+import inspect
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
-from sdc_unit import discrete
+from sdc_unit import discrete, law_kernels, tustin_jit
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
 
@@ -76,3 +78,10 @@ def test_engine_is_checked():
         DiscreteVisc(2, engine="fortran")
     with pytest.raises(ValueError):
         DiscreteVisc(2, method="euler", engine="jit")
+
+
+def test_compiled_step_cache_follows_the_law_kernels_source():
+    """numba stamps its on-disk cache with tustin_jit.py only; the step's closure carries a hash of
+    law_kernels.py (which it compiles in), so an edit there cannot load a stale step."""
+    key = int(hashlib.sha256(inspect.getsource(law_kernels).encode()).hexdigest()[:15], 16)
+    assert [c.cell_contents for c in tustin_jit.tustin_step.py_func.__closure__] == [key]
