@@ -65,7 +65,7 @@ def run(scenario: dict, work: Path) -> dict:
     path = work / f"{scenario['name']}.yaml"
     path.write_text(yaml.safe_dump(scenario, sort_keys=False))
     out = work / scenario["name"]
-    res = subprocess.run([sys.executable, "-m", "sdvisc.cli", "run", str(path), "--out", str(out), "--quiet"],
+    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"],
                          cwd=ROOT, capture_output=True, text=True, timeout=600)
     if res.returncode != 0:
         raise RuntimeError(f"{scenario['name']} failed:\n{res.stdout}\n{res.stderr}")

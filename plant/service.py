@@ -28,6 +28,7 @@ import numpy as np
 from plant import endpoint_rx
 from plant.recorder import Recorder
 from sdvisc import wire
+from sdvisc.config import ConfigError, PlantConfig, load_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
@@ -67,20 +68,20 @@ class Endpoint:
 FARM_TURBINES_PER_CLUSTER = 10
 
 
-def build_model(cfg: dict, names: list[str]):
+def build_model(cfg: PlantConfig, names: list[str]):
     """The plant model and the model index of each turbine endpoint (by host name).
 
     ``minimal``: one model turbine per turbine host. ``full``: the 50-turbine farm of
     :mod:`plant.sim`; host ``wt<c>_<n>`` is farm turbine ``(c-1)*10 + n-1``, the other farm
     turbines run without a network endpoint (grid following).
     """
-    kind = cfg.get("model", "minimal")
-    step_s = cfg["step_s"]
+    kind = cfg.model
+    step_s = cfg.step_s
     if kind == "minimal":
         from plant.minimal import MinimalPlant
 
-        model = MinimalPlant(len(names), step_s, remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1),
-                             remote_apply=cfg.get("remote_apply", "i_ref"))
+        model = MinimalPlant(len(names), step_s, remote_loss_fallback_s=cfg.remote_loss_fallback_s,
+                             remote_apply=cfg.remote_apply)
         return model, list(range(len(names)))
     if kind == "full":
         from dataclasses import replace
@@ -90,8 +91,8 @@ def build_model(cfg: dict, names: list[str]):
         from plant.sim import Plant
 
         base = PlantParams()
-        turbine = replace(base.turbine, remote_apply=cfg.get("remote_apply", "i_ref"),
-                          remote_loss_fallback_s=cfg.get("remote_loss_fallback_s", 0.1))
+        turbine = replace(base.turbine, remote_apply=cfg.remote_apply,
+                          remote_loss_fallback_s=cfg.remote_loss_fallback_s)
         params = replace(base, turbine=turbine)
         n_farm = params.n_clusters * FARM_TURBINES_PER_CLUSTER
         indices = []
@@ -109,37 +110,35 @@ def build_model(cfg: dict, names: list[str]):
 class PlantService:
     """The paced loop; see the module docstring."""
 
-    def __init__(self, cfg: dict) -> None:
+    def __init__(self, cfg: PlantConfig) -> None:
         self.cfg = cfg
-        self.step_s = float(cfg["step_s"])
-        self.n_steps = int(round(cfg["duration_s"] / self.step_s))
-        self.header = bool(cfg.get("header", True))
-        self.vip = cfg["controller_vip"]
-        self.ak_every = max(1, int(round(cfg.get("ak_period_s", 0.01) / self.step_s)))
-        self.ak_window_s = float(cfg.get("ak_window_s", 0.01))
-        hold = cfg.get("report_loss_after_s")
-        self.report_loss_after_s = float(hold) if hold is not None else None
-        self.out_dir = Path(cfg["out_dir"])
-        self.model, indices = build_model(cfg, [t["name"] for t in cfg["turbines"]])
+        self.step_s = cfg.step_s
+        self.n_steps = int(round(cfg.duration_s / self.step_s))
+        self.header = cfg.header
+        self.vip = cfg.controller_vip
+        self.ak_every = max(1, int(round(cfg.ak_period_s / self.step_s)))
+        self.ak_window_s = cfg.ak_window_s
+        self.report_loss_after_s = cfg.report_loss_after_s
+        self.out_dir = Path(cfg.out_dir)
+        self.model, indices = build_model(cfg, [t.name for t in cfg.turbines])
         self.endpoints: list[Endpoint] = []
-        for t, index in zip(cfg["turbines"], indices):
-            sock = udp_socket_in(t.get("pid"), t["ip"], wire.PORT_TURBINE)
-            self.endpoints.append(Endpoint(t["name"], t["wid"], index, sock))
+        for t, index in zip(cfg.turbines, indices):
+            sock = udp_socket_in(t.pid, t.ip, wire.PORT_TURBINE)
+            self.endpoints.append(Endpoint(t.name, t.wid, index, sock))
         self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
         self.rx_stats = wire.DecodeStats()
-        self.check_rx_source = bool(cfg.get("check_rx_source", True))  # see plant.endpoint_rx
+        self.check_rx_source = cfg.check_rx_source  # see plant.endpoint_rx
         self.late_steps = 0
         self.stalls: list[list] = []  # [t_sim at the start, worst lateness ms, last step] of each stall > 10 ms
         self.max_lateness_s = 0.0
         self.k = 0
         self.events_applied: list[dict] = []
-        record = cfg.get("record", [])
-        self.recorder = Recorder(self.out_dir / "timeseries.csv", [ep for ep in self.endpoints if ep.name in record],
-                                 every=max(1, int(cfg.get("record_every", 15))))
+        self.recorder = Recorder(self.out_dir / "timeseries.csv",
+                                 [ep for ep in self.endpoints if ep.name in cfg.record], every=cfg.record_every)
         self.poller = select.epoll()
         for fd in self.by_fd:
             self.poller.register(fd, select.EPOLLIN)
-        self.commands = JsonLineReader(sys.stdin.fileno()) if cfg.get("stdin_commands", True) else None
+        self.commands = JsonLineReader(sys.stdin.fileno()) if cfg.stdin_commands else None
         if self.commands is not None:
             self.poller.register(self.commands.fd, select.EPOLLIN)
         self.stop_requested = False
@@ -293,7 +292,7 @@ class PlantService:
         write_json_atomic(self.out_dir / "plant_status.json", status)
 
     def run(self) -> None:
-        t0 = float(self.cfg.get("t0_wall") or time.time())
+        t0 = float(self.cfg.t0_wall or time.time())
         status_every = max(1, int(0.1 / self.step_s))
         while self.k < self.n_steps and not self.stop_requested:
             scheduled = t0 + self.k * self.step_s
@@ -354,22 +353,26 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m plant.service", description=__doc__)
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
-    cfg = json.loads(Path(args.config).read_text())
+    try:
+        cfg = load_config(PlantConfig, args.config)
+    except ConfigError as exc:
+        print(f"plant: {exc}", file=sys.stderr)
+        return 2
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     service = PlantService(cfg)  # builds the model (loads, or the first time compiles, its code)
-    service.scheduling = raise_priority() if cfg.get("realtime_priority", True) else "default"
-    if cfg.get("t0_wall") is None and cfg.get("start_margin_s") is not None:
+    service.scheduling = raise_priority() if cfg.realtime_priority else "default"
+    if cfg.t0_wall is None and cfg.start_margin_s is not None:
         # the runner waits for this: t = 0 is set only once the model is ready, so a slow start
         # (numba's cache loading, a first compile) does not show up as late steps
-        cfg["t0_wall"] = time.time() + float(cfg["start_margin_s"])
-        write_json_atomic(Path(cfg["out_dir"]) / "plant_ready.json", {"t0_wall": cfg["t0_wall"]})
+        cfg.t0_wall = time.time() + cfg.start_margin_s
+        write_json_atomic(Path(cfg.out_dir) / "plant_ready.json", {"t0_wall": cfg.t0_wall})
     try:
         service.run()
     except KeyboardInterrupt:
         pass
     finally:
         service.close()
-        (Path(cfg["out_dir"]) / "plant_stats.json").write_text(json.dumps(service.summary(), indent=1))
+        (Path(cfg.out_dir) / "plant_stats.json").write_text(json.dumps(service.summary(), indent=1))
     return 0
 
 

@@ -20,17 +20,18 @@ from pathlib import Path
 
 from mininet.node import RemoteController
 
+from scenarios import configs
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from sdvisc import cleanup, wire
+from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
 from sdvisc.netns import set_link_up
 from topologies import topos
-from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, TestbedSwitch, default_datapath, describe
+from topologies.base import TestbedSwitch, default_datapath, describe
 
 MAX_RESTARTS = 3  # per service and run
 RESTARTABLE = (".sdc", "owfcc.owfcc", "controller", "controller2")  # the plant is the run's clock: never
 SWITCH_CONNECT_TIMEOUT_S = 30.0
-START_MARGIN_S = 0.5
 READY_TIMEOUT_S = 120.0
 
 
@@ -110,15 +111,7 @@ class Run:
         topo = topos[sc.topology.name](**sc.topology.params())
         self.desc = describe(topo)
         port = _free_port()
-        app_cfg = {"topology": self.desc, "controller_vip": CONTROLLER_VIP, "controller_vmac": CONTROLLER_VMAC,
-                   "visc_disabled": sc.sdn.visc_disabled, "dr_hold_s": sc.sdn.dr_hold_s,
-                   "ak_timeout_s": sc.sdn.ak_timeout_s, "dynamic_routing": sc.sdn.dynamic_routing,
-                   "reroute_on_port_status": sc.sdn.reroute_on_port_status, "failover": sc.sdn.failover,
-                   "fast_failover": sc.sdn.fast_failover,
-                   "sdc_dead_s": sc.sdn.sdc_dead_s, "mirror_to_backup": sc.sdn.mirror_to_backup,
-                   "turbine_fallback_s": sc.plant.remote_loss_fallback_s,
-                   "backup_sdc": "sdc2" if sc.sdc.backup else None, "state_dir": str(self.out)}
-        cfg_path = self._write_json("sdn_config.json", app_cfg)
+        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out)), self.out / "sdn_config.json")
         app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
         if sc.sdn.redundancy:
             port2, peer_a, peer_b = _free_port(), _free_port(), _free_port()
@@ -199,15 +192,12 @@ class Run:
     def start_services(self) -> None:
         sc = self.scenario
         hosts = self.desc["hosts"]
-        base = {"controller_vip": CONTROLLER_VIP, "header": True, "out_dir": str(self.out), "step_s": sc.step_s}
-        sdcs = [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
-        for host, sdc_id, role in sdcs:
-            cfg = self._write_json(f"{host}_config.json", {**base, "sdc_id": sdc_id, "role": role,
-                                                           "method": sc.sdc.method, "dtype": sc.sdc.dtype, "standby": sc.sdc.standby,
-                                                           "capacity": sum(h["role"] == "turbine" for h in hosts.values())})
+        out = str(self.out)
+        for host, sdc_id, role in configs.sdcs(sc):
+            cfg = write_config(configs.sdc_config(sc, self.desc, out, sdc_id, role), self.out / f"{host}_config.json")
             self._popen(f"{host}.sdc", [self.python, "-m", "sdc_unit.service", "--config", str(cfg)],
                         host=self.net.get(host))
-        cfg = self._write_json("owfcc_config.json", base)
+        cfg = write_config(configs.owfcc_config(sc, out), self.out / "owfcc_config.json")
         self._popen("owfcc.owfcc", [self.python, "-m", "sdvisc.owfcc", "--config", str(cfg)],
                     host=self.net.get("owfcc"), stdin=subprocess.PIPE)
         if sc.capture.pcap:
@@ -215,18 +205,11 @@ class Run:
                 node = self.net.get(h)
                 self._popen(f"{h}.tcpdump", ["tcpdump", "-i", node.defaultIntf().name, "-B", "16384", "--immediate-mode", "-w",
                                              str(self.out / f"sdvisc-capture-{h}.pcap"), "udp"], host=node)
-        turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"],
-                     "pid": self.net.get(n).pid} for n, h in sorted(hosts.items()) if h["role"] == "turbine"]
-        for host, sdc_id, _ in sdcs:  # the plant starts only when every SDC is ready
+        for host, sdc_id, _ in configs.sdcs(sc):  # the plant starts only when every SDC is ready
             self._wait_ready(f"{host}.sdc", f"sdc{sdc_id}_ready.json", f"SDC on {host}")
         time.sleep(0.3)  # let the other services bind their sockets
-        plant_cfg = {**base, "turbines": turbines, "duration_s": sc.duration_s, "t0_wall": None,
-                     "start_margin_s": START_MARGIN_S,
-                     "model": sc.plant.model, "record": sc.plant.record or sc.turbines_named(),
-                     "record_every": sc.plant.record_every, "ak_period_s": sc.plant.ak_period_s,
-                     "ak_window_s": sc.plant.ak_window_s, "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s,
-                     "remote_apply": sc.plant.remote_apply, "report_loss_after_s": sc.sdn.dr_hold_s}
-        cfg = self._write_json("plant_config.json", plant_cfg)
+        pids = {n: self.net.get(n).pid for n, h in hosts.items() if h["role"] == "turbine"}
+        cfg = write_config(configs.plant_config(sc, self.desc, out, pids), self.out / "plant_config.json")
         self._popen("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
         # the plant sets t = 0 (wall time) once its model is built and warmed up
         self.t0 = float(self._wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])

@@ -32,13 +32,18 @@ class _Config(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-class ServiceBase(_Config):
-    """What every network service of the testbed needs."""
+class ProcessBase(_Config):
+    """What every network process of the testbed needs."""
 
-    step_s: float = Field(gt=0, le=0.1, description="sampling period Ts, s")
     controller_vip: str = Field(CONTROLLER_VIP, description="the SDN app's virtual IP address")
     header: bool = Field(True, description="GTNET packets carry the VILLASnode 3-word header")
     out_dir: str = Field(description="where the process writes its ready file, statistics and events")
+
+
+class ServiceBase(ProcessBase):
+    """A process that runs at the sampling period."""
+
+    step_s: float = Field(gt=0, le=0.1, description="sampling period Ts, s")
     realtime_priority: bool = Field(True, description="run at SCHED_FIFO where allowed")
 
 
@@ -83,11 +88,11 @@ class PlantConfig(ServiceBase):
     start_margin_s: float | None = Field(None, ge=0, description="t = 0 this long after the model is ready")
 
 
-class OwfccConfig(ServiceBase):
+class OwfccConfig(ProcessBase):
     """``python -m sdvisc.owfcc``."""
 
-    retry_s: float = Field(0.2, gt=0, description="resend an unanswered request after this long")
-    max_tries: int = Field(3, ge=1)
+    retry_s: float = Field(0.5, gt=0, description="resend an unanswered request after this long")
+    max_tries: int = Field(4, ge=1)
 
 
 class SwitchInfo(_Config):

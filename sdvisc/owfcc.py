@@ -30,7 +30,9 @@ import traceback
 from pathlib import Path
 
 from sdvisc import wire
+from sdvisc.config import ConfigError, OwfccConfig, load_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
+from sdvisc.vocabulary import VISC_PARAMS
 
 COMMANDS = {"visc_on": wire.Command.VISC_ON, "visc_off": wire.Command.VISC_OFF,
             "set_params": wire.Command.SET_PARAMS}
@@ -39,8 +41,7 @@ RX_REASONS: tuple[str, ...] = wire.REJECT_REASONS + ("unexpected_type", "unknown
 ``unexpected_type``: a valid message other than REPLY; ``unknown_req_id``: a REPLY to a request id
 never issued; ``mismatch``: a REPLY whose ``wt`` or ``cmd`` is not that of the pending request with
 its id (the request stays pending); ``internal``: handling it raised (logged once to stderr)."""
-PARAM_BITS = {"h": wire.ParamMask.H, "d": wire.ParamMask.D, "m_q": wire.ParamMask.M_Q,
-              "v_ref": wire.ParamMask.V_REF, "q_ref": wire.ParamMask.Q_REF, "supp": wire.ParamMask.SUPP}
+PARAM_BITS = VISC_PARAMS
 
 
 def request_values(req_id: int, command: dict) -> dict:
@@ -57,18 +58,18 @@ def request_values(req_id: int, command: dict) -> dict:
 
 
 class Owfcc:
-    def __init__(self, cfg: dict, sock: socket.socket | None = None) -> None:
+    def __init__(self, cfg: OwfccConfig, sock: socket.socket | None = None) -> None:
         self.cfg = cfg
-        self.vip = (cfg["controller_vip"], wire.PORT_CONTROLLER)
-        self.header = bool(cfg.get("header", True))
-        self.retry_s = float(cfg.get("retry_s", 0.5))
-        self.max_tries = int(cfg.get("max_tries", 4))
+        self.vip = (cfg.controller_vip, wire.PORT_CONTROLLER)
+        self.header = cfg.header
+        self.retry_s = cfg.retry_s
+        self.max_tries = cfg.max_tries
         if sock is None:  # (tests hand in their own socket)
             sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
             sock.bind(("0.0.0.0", wire.PORT_OWFCC))
             sock.setblocking(False)
         self.sock = sock
-        self.log = open(Path(cfg["out_dir"]) / "owfcc_events.jsonl", "a", buffering=1)  # noqa: SIM115
+        self.log = open(Path(cfg.out_dir) / "owfcc_events.jsonl", "a", buffering=1)  # noqa: SIM115
         self.pending: dict[int, dict] = {}
         self.next_id = 1
         self.rx_stats = wire.DecodeStats()
@@ -191,7 +192,11 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m sdvisc.owfcc", description=__doc__)
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
-    cfg = json.loads(Path(args.config).read_text())
+    try:
+        cfg = load_config(OwfccConfig, args.config)
+    except ConfigError as exc:
+        print(f"owfcc: {exc}", file=sys.stderr)
+        return 2
     owfcc = Owfcc(cfg)
     # the runner stops the OWFCC with SIGTERM: end like Ctrl-C, so the statistics are written
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
@@ -200,7 +205,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     finally:
-        write_json_atomic(Path(cfg["out_dir"]) / "owfcc_stats.json", owfcc.stats())
+        write_json_atomic(Path(cfg.out_dir) / "owfcc_stats.json", owfcc.stats())
     return 0
 
 

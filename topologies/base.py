@@ -3,27 +3,23 @@
 Addressing is stable so that scenarios, tables and captures can name things:
 turbine ``wt<c>_<n>`` has IP ``10.0.<c>.<n>/16`` and MAC ``02:00:00:00:<c>:<n>`` (hex);
 service hosts (``owfcc``, ``sdc1``, ``sdc2``) live in ``10.0.0.0/24``. The SDN application
-answers on a virtual IP (:data:`CONTROLLER_VIP`) that no host owns; hosts reach it through a
+answers on a virtual IP (:data:`sdvisc.config.CONTROLLER_VIP`) that no host owns; hosts reach it through a
 static ARP entry, and every switch sends packets for it to the controller.
 """
 
 from __future__ import annotations
 
 import os
-import re
 
 from mininet.node import OVSBridge, OVSSwitch
 from mininet.topo import Topo
 
 NET_PREFIX_LEN = 16
-CONTROLLER_VIP = "10.0.0.254"
-CONTROLLER_VMAC = "02:00:00:00:00:fe"
 SERVICE_HOSTS = {
     "owfcc": ("10.0.0.10", "02:00:00:00:00:0a"),
     "sdc1": ("10.0.0.21", "02:00:00:00:00:15"),
     "sdc2": ("10.0.0.22", "02:00:00:00:00:16"),
 }
-TURBINE_NAME = re.compile(r"^wt(\d+)_(\d+)$")
 
 
 def turbine_host(cluster: int, number: int) -> str:

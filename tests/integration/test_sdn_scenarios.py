@@ -92,7 +92,7 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
     scenario.write_text((SC / "link_failure_dr.yaml").read_text().replace(
         "  - {t: 2.0, do: link_down, a: s1, b: s3}\n", "").replace("duration_s: 4.0", "duration_s: 10.0"))
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "sdvisc.cli", "run", str(scenario), "--out", str(out), "--cli",
+    proc = subprocess.Popen([sys.executable, "-m", "scenarios.cli", "run", str(scenario), "--out", str(out), "--cli",
                              "--quiet"], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     status = out / "plant_status.json"

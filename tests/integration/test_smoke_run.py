@@ -48,7 +48,7 @@ def test_smoke_scenario_serves_wt1_1_only_after_the_request(tmp_path):
 
 @pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
 def test_interrupted_run_leaves_nothing_behind(tmp_path, sig):
-    proc = subprocess.Popen([sys.executable, "-m", "sdvisc.cli", "run", str(ROOT / "scenarios" / "smoke.yaml"),
+    proc = subprocess.Popen([sys.executable, "-m", "scenarios.cli", "run", str(ROOT / "scenarios" / "smoke.yaml"),
                              "--out", str(tmp_path), "--quiet"], cwd=ROOT, start_new_session=True,
                             stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
     deadline = time.time() + 60

@@ -11,6 +11,7 @@ from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
 from sdvisc import wire
+from sdvisc.config import OwfccConfig
 from sdvisc.owfcc import COMMANDS, RX_REASONS, Owfcc
 
 FUZZ = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow,
@@ -38,7 +39,7 @@ _opened: list[Owfcc] = []
 
 
 def owfcc(tmp_path) -> Owfcc:
-    o = Owfcc({"controller_vip": "10.0.0.254", "out_dir": str(tmp_path)}, sock=FakeSock())
+    o = Owfcc(OwfccConfig(controller_vip="10.0.0.254", out_dir=str(tmp_path)), sock=FakeSock())
     _opened.append(o)
     return o
 

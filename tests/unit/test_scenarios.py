@@ -184,9 +184,9 @@ def test_settable_params_are_callable_on_built_models():
 
 def test_check_command_exit_codes(tmp_path):
     good = ROOT / "scenarios" / "smoke.yaml"
-    ok = subprocess.run([sys.executable, "-m", "sdvisc.cli", "check", str(good)], capture_output=True, text=True)
+    ok = subprocess.run([sys.executable, "-m", "scenarios.cli", "check", str(good)], capture_output=True, text=True)
     assert ok.returncode == 0, ok.stderr
     bad = write(tmp_path, BASE + "sdn: {dr_hold: 0.04}\n")
-    res = subprocess.run([sys.executable, "-m", "sdvisc.cli", "check", str(bad)], capture_output=True, text=True)
+    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "check", str(bad)], capture_output=True, text=True)
     assert res.returncode == 1
     assert f"{bad}:4: sdn.dr_hold: unknown key" in res.stderr

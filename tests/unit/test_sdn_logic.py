@@ -14,9 +14,9 @@ from sdn_app.ofmsg import to_messages
 from sdn_app.paths import build_graph, choose_path
 from sdn_app.tables import TableError, Tables, TurbineAddress, TwoDigit
 from sdvisc import wire
-from sdvisc.config import AppConfig
+from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, AppConfig
 from topologies import topos
-from topologies.base import CONTROLLER_VIP, CONTROLLER_VMAC, describe
+from topologies.base import describe
 
 
 def make_config(**kw) -> AppConfig:

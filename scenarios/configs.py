@@ -1,0 +1,49 @@
+"""Each process's configuration, derived from a scenario (pure: no Mininet, no files).
+
+The models are :mod:`sdvisc.config`'s; the runner writes what these functions return with
+:func:`sdvisc.config.write_config` and each process reads it back through the same model.
+"""
+
+from __future__ import annotations
+
+from scenarios.schema import Scenario
+from sdvisc import wire
+from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, AppConfig, OwfccConfig, PlantConfig, SdcConfig
+
+START_MARGIN_S = 0.5  # t = 0 this long after the plant's model is ready
+
+
+def sdcs(sc: Scenario) -> list[tuple[str, int, str]]:
+    """(host, sdc_id, role) of the SDCs the scenario runs."""
+    return [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
+
+
+def app_config(sc: Scenario, desc: dict, out_dir: str) -> AppConfig:
+    return AppConfig(topology=desc, controller_vip=CONTROLLER_VIP, controller_vmac=CONTROLLER_VMAC,
+                     visc_disabled=sc.sdn.visc_disabled, dr_hold_s=sc.sdn.dr_hold_s, ak_timeout_s=sc.sdn.ak_timeout_s,
+                     dynamic_routing=sc.sdn.dynamic_routing, reroute_on_port_status=sc.sdn.reroute_on_port_status,
+                     failover=sc.sdn.failover, fast_failover=sc.sdn.fast_failover, sdc_dead_s=sc.sdn.sdc_dead_s,
+                     mirror_to_backup=sc.sdn.mirror_to_backup, turbine_fallback_s=sc.plant.remote_loss_fallback_s,
+                     backup_sdc="sdc2" if sc.sdc.backup else None, state_dir=out_dir)
+
+
+def sdc_config(sc: Scenario, desc: dict, out_dir: str, sdc_id: int, role: str) -> SdcConfig:
+    return SdcConfig(step_s=sc.step_s, controller_vip=CONTROLLER_VIP, out_dir=out_dir, sdc_id=sdc_id, role=role,
+                     method=sc.sdc.method, dtype=sc.sdc.dtype, standby=sc.sdc.standby,
+                     capacity=sum(h["role"] == "turbine" for h in desc["hosts"].values()))
+
+
+def owfcc_config(sc: Scenario, out_dir: str) -> OwfccConfig:
+    return OwfccConfig(controller_vip=CONTROLLER_VIP, out_dir=out_dir)
+
+
+def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | None]) -> PlantConfig:
+    """``pids``: a process in each turbine's network namespace (the Mininet host's shell)."""
+    turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"], "pid": pids.get(n)}
+                for n, h in sorted(desc["hosts"].items()) if h["role"] == "turbine"]
+    p = sc.plant
+    return PlantConfig(step_s=sc.step_s, controller_vip=CONTROLLER_VIP, out_dir=out_dir, duration_s=sc.duration_s,
+                       turbines=turbines, model=p.model, record=p.record or sc.turbines_named(),
+                       record_every=p.record_every, ak_period_s=p.ak_period_s, ak_window_s=p.ak_window_s,
+                       remote_loss_fallback_s=p.remote_loss_fallback_s, remote_apply=p.remote_apply,
+                       report_loss_after_s=sc.sdn.dr_hold_s, start_margin_s=START_MARGIN_S)
