@@ -366,10 +366,13 @@ def test_every_layout_starts_with_msg_type_and_fits() -> None:
         assert wire.word_count(mtype, header=True) <= MAX_WORDS
 
 
-def test_ports_are_distinct() -> None:
-    ports = [wire.PORT_CONTROLLER, wire.PORT_SDC, wire.PORT_TURBINE, wire.PORT_OWFCC]
-    assert ports == [50000, 50010, 50020, 50030]
-    assert sorted(wire.PORT_ROLES) == ports
+def test_ports_are_distinct_and_documented() -> None:
+    """Every role listens on its own port, and docs/wire-format.md's port table says the same."""
+    assert len(set(wire.PORT_ROLES)) == len(wire.PORT_ROLES) == len(set(wire.PORT_ROLES.values()))
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "wire-format.md").read_text()
+    documented = {int(m.group(2)): m.group(1) for m in re.finditer(r"^\| `(PORT_[A-Z]+)` \| (\d+) \|", doc, re.M)}
+    assert documented == {port: f"PORT_{role.upper()}" for port, role in wire.PORT_ROLES.items()}
+    assert all(getattr(wire, name) == port for port, name in documented.items())
 
 
 @pytest.mark.parametrize("mtype", list(MsgType), ids=lambda t: t.name)
