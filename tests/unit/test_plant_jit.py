@@ -47,14 +47,14 @@ def _run(jit: bool, t_end: float = 1.5, record_every: int = 5, events=None, para
     p = Plant(params, n_turbines=50, jit=jit)
     counts = [0, 0]
     if jit:
-        inner = p._jit.step
+        inner = p._compiled.step
 
         def counting(*a):
-            ok = inner(*a)
-            counts[ok] += 1
-            return ok
+            r = inner(*a)
+            counts[r is not None] += 1
+            return r
 
-        p._jit.step = counting
+        p._compiled.step = counting
     ev = {int(round(t / p.step_s)): f for t, f in (events or EVENTS).items()}
     meas, outs = [], []
     for k in range(int(round(t_end / p.step_s))):

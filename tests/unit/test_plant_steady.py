@@ -35,7 +35,7 @@ def test_power_balance_at_rated_wind(settled):
 
 def test_state_is_stationary(settled):
     p = settled
-    dX, _, _ = p._rhs(p.X, p.xl)
+    dX, _, _ = p._evaluate(p.X, p.xl)
     assert np.max(np.abs(dX)) < 1e-6
     o = p.outputs()
     assert 0.95 < o["v_pcc"] < 1.05 and abs(o["f_pcc_hz"] - 50.0) < 5e-5

@@ -1,0 +1,192 @@
+"""The compiled path: packs what the kernels (plant/kernels.py) need and runs them.
+
+``CompiledPath`` holds no reference to the plant: every call gets the state and the arrays it
+reads passed in, and returns new arrays (an evaluation never overwrites arrays handed out
+earlier). The plant decides where it applies (``covers``) and keeps its own bookkeeping.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant import kernels
+from plant.condenser import NX as SC_NX
+from plant.integrator import etd2_correct, etd2_predict
+from plant.layout import GRID_NX, PLL_NX, StateLayout
+from plant.slots import Const, Row, Scalar, Slow, pack, slow_constants, turbine_gains
+from plant.turbine import NS
+from sdvisc.vocabulary import MEAS_FIELDS
+
+
+class SlowTerms(dict):
+    """``TurbineBank.slow_terms``'s dict from the compiled slow terms; P* - jQ* built on demand."""
+
+    __slots__ = ("rows",)
+
+    def __missing__(self, key):
+        if key != "sref":
+            raise KeyError(key)
+        val = self["sref"] = self.rows[Slow.s_ref_re] + 1j * self.rows[Slow.s_ref_im]
+        return val
+
+
+_ROW_KEYS = {"vdc": Row.v_dc, "pme": Row.p_me}
+_SCALAR_KEYS = {"i_sc": Scalar.i_sc, "e_grid": Scalar.e_grid, "e_sc": Scalar.e_sc, "i_load": Scalar.i_load}
+
+
+class CompiledAux(dict):
+    """The results of a compiled evaluation as the plant's ``aux`` dict (plant/equations.py),
+    each entry built on first access from the buffer ``out`` and ``rows``; the measurement dict
+    and ``v_pcc`` at once (the plant reads them after every step)."""
+
+    __slots__ = ("_source",)
+
+    def __init__(self, out, rows, n: int, size: int):
+        o = 2 * size  # out = [X+ | dX | node_v | scalars] (kernels.split)
+        self["v_pcc"] = complex(out[o + n])
+        self["meas"] = dict(zip(MEAS_FIELDS, rows))
+        self._source = (out, rows, n, o)
+
+    def __missing__(self, key):
+        out, rows, n, o = self._source
+        if key == "v":
+            val = out[o:o + n]
+        elif key == "node_v":
+            val = out[o:o + n + 2]
+        elif key == "i":
+            val = rows[Row.i_d] + 1j * rows[Row.i_q]
+        elif key == "vconv":
+            val = rows[Row.v_conv_re] + 1j * rows[Row.v_conv_im]
+        elif key in _ROW_KEYS:
+            val = rows[_ROW_KEYS[key]]
+        elif key == "v_sc":
+            val = complex(out[o + n + 1])
+        elif key in _SCALAR_KEYS:
+            val = complex(out[o + n + 2 + _SCALAR_KEYS[key]])
+        elif key == "f_pcc_pu":
+            val = out[o + n + 2 + Scalar.f_pcc_pu].real
+        elif key == "law_out":
+            val = None
+        else:
+            raise KeyError(key)
+        self[key] = val
+        return val
+
+
+class CompiledPath:
+    """The usual case of the plant's evaluations and steps, compiled."""
+
+    def __init__(self, turbine_params, layout: StateLayout):
+        self.n, self.size = layout.n, layout.size
+        self.constants = np.zeros(len(Const))
+        pack(turbine_gains(turbine_params), self.constants)
+        self.held = None  # the SlowTerms of the last hold_slow
+        self._out_size = 2 * self.size + self.n + 2 + kernels.N_SCALARS  # kernels.split
+        self._rows_shape = (len(Row), self.n)
+        self.z_planes = None
+        self._z_source = None
+        load_kernels()
+
+    # ---------------------------------------------------------------- values
+    def hold_slow(self, X, turbines) -> SlowTerms:
+        """Evaluate the slow mechanical terms of state X (``TurbineBank.slow_terms``, compiled)."""
+        tb = turbines
+        pack(slow_constants(tb.p), self.constants)
+        rows = np.empty((len(Slow), self.n))
+        vd_ok, p_avail_min = kernels.slow_terms(X, self.constants, tb.v_wind, tb.mppt, tb.p_cmd, tb.q_cmd, rows)
+        self.constants[Const.vd_ok] = vd_ok
+        held = SlowTerms(paero=rows[Slow.p_aero], pav=rows[Slow.p_avail], pav_min=p_avail_min, vd_ok=vd_ok,
+                         inv2hw=rows[Slow.inv_2hw], db=rows[Slow.d_beta], dxb=rows[Slow.d_xbeta],
+                         any_batt=bool(tb.battery.any()))
+        held.rows = rows
+        self.held = held
+        return held
+
+    def set_values(self, values: dict[str, float]) -> None:
+        """The operating values (plant.slots.operating_values)."""
+        pack(values, self.constants)
+
+    def covers(self, turbines, net) -> bool:
+        """True if the compiled path applies: its own slow terms held, no battery, all plugged
+        (and the network's reduced impedance copied into ``z_planes`` whenever it was rebuilt)."""
+        held = self.held
+        if held is None or turbines.slow is not held or held["any_batt"] or not net.all_plugged:
+            return False
+        if net.zred is not self._z_source:
+            self.z_planes = np.ascontiguousarray(np.stack([net.zred.real.T, net.zred.imag.T]))
+            self._z_source = net.zred
+        return True
+
+    def _buffers(self):
+        return np.empty(self._out_size, dtype=complex), np.empty(self._rows_shape)
+
+    # ---------------------------------------------------------------- evaluations
+    def evaluate(self, X, turbines, v_load: complex):
+        """(dX, aux) of state X, or None (a limiter would act: the numpy path evaluates it)."""
+        tb = turbines
+        out, rows = self._buffers()
+        if not kernels.evaluate(X, v_load, self.constants, self.held.rows, tb.mode, tb.v_hold, tb.i_hold, self.z_planes,
+                                out, rows):
+            return None
+        return out[self.size:2 * self.size], CompiledAux(out, rows, self.n, self.size)
+
+    def solve_network(self, X, v_load: complex):
+        """(node voltages [terminals, PCC, SC], sources) of state X: the first half of an
+        evaluation, for hd_visc turbines whose law needs the terminal voltages."""
+        node_v = np.empty(self.n + 2, dtype=complex)
+        sources = kernels.solve_network(X, v_load, self.constants, self.z_planes, node_v)
+        return node_v, sources
+
+    def evaluate_given_network(self, X, node_v, sources, turbines, v_ext, want_aux: bool):
+        """(dX, aux or None) of state X with its network solved and the converter voltages
+        ``v_ext`` (held remote references and the law's); None if a limiter would act."""
+        tb = turbines
+        out, rows = self._buffers()
+        o = 2 * self.size
+        dX, scalars = out[self.size:o], out[o + self.n + 2:]
+        out[o:o + self.n + 2] = node_v
+        if not kernels.rhs_given_network(X, node_v, sources, self.constants, self.held.rows, tb.mode, v_ext,
+                                         tb.i_hold, dX, rows, scalars, want_aux):
+            return None
+        return dX, (CompiledAux(out, rows, self.n, self.size) if want_aux else None)
+
+    def step(self, X, k1, coefficients, turbines, v_load: complex, evaluate_next: bool):
+        """One ETD2 step of X (first stage k1, ``Etd2Coefficients``): (X+, (dX+, aux+) or None),
+        or None when its second stage needs the numpy path (nothing done)."""
+        tb = turbines
+        out, rows = np.empty(self._out_size, dtype=complex), np.empty(self._rows_shape)
+        code = kernels.step(X, k1, coefficients.rows, v_load, self.constants, self.held.rows, tb.mode, tb.v_hold,
+                            tb.i_hold, self.z_planes, out, rows, evaluate_next)
+        if code == 1:
+            return None
+        x_next = out[:self.size]
+        if code == 2 or not evaluate_next:
+            return x_next, None
+        return x_next, (out[self.size:2 * self.size], CompiledAux(out, rows, self.n, self.size))
+
+
+_loaded = False
+
+
+def load_kernels() -> None:
+    """Call every kernel once on a one-turbine dummy (argument types as in a run), so that numba
+    loads them from its cache (or compiles them) when a plant is built, not in its first step."""
+    global _loaded
+    if _loaded:
+        return
+    size = NS + SC_NX + GRID_NX + PLL_NX
+    X, constants, slow = np.ones(size, dtype=complex), np.ones(len(Const)), np.ones((len(Slow), 1))
+    mode, v_ext, z_planes = np.zeros(1, dtype=np.int64), np.ones(1, dtype=complex), np.ones((2, 3, 3))
+    out, rows = np.empty(2 * size + 3 + kernels.N_SCALARS, dtype=complex), np.empty((len(Row), 1))
+    kernels.evaluate(X, 1j, constants, slow, mode, v_ext, v_ext, z_planes, out, rows)
+    kernels.step(X, out[size:2 * size], np.ones((3, 2 * size)), 1j, constants, slow, mode, v_ext, v_ext, z_planes, out,
+                 rows, True)
+    node_v = np.ones(3, dtype=complex)
+    sources = kernels.solve_network(X, 1j, constants, z_planes, node_v)
+    kernels.rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, v_ext, out[size:2 * size], rows,
+                              out[2 * size + 3:], False)
+    kernels.slow_terms(X, constants, np.ones(1), np.ones(1, dtype=bool), np.ones(1), np.ones(1), slow)
+    flat = np.ones(4)
+    etd2_predict(flat, flat, flat, flat)
+    etd2_correct(flat, flat, flat, flat, flat, flat)
+    _loaded = True

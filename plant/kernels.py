@@ -1,0 +1,303 @@
+"""The plant's equations for the usual case, compiled with numba (docs/plant.md, Integration).
+
+This is the implementation of the usual case: the reduced network solve, the turbines with the
+held slow terms (grid-following, remote with v_ref or i_ref, and hd_visc turbines whose converter
+voltage the law supplies), the synchronous condenser, the grid source and the PCC PLL, and the
+whole ETD2 step around them (plant/integrator.py). Where a limiter would act (V_d floor /
+grid-following current limit, modulation limit, MSC power clip, braking chopper) a kernel returns
+False (or a code) and the plant evaluates that state with the general numpy path
+(plant/equations.py, turbine.py, condenser.py), which also covers batteries, unplugged turbines
+and slow terms evaluated at every stage. The equations are those of docs/plant.md.
+
+Arguments, by name: ``X`` the complex state (plant/layout.py), ``constants`` (slots ``Const``),
+``slow`` the held slow terms (rows ``Slow``, N columns), ``mode``/``v_ext``/``i_hold`` the turbine
+modes, converter-voltage references (held remote references or the law's) and held current
+references, ``z_planes`` the real and imaginary planes of ``Network.zred``, transposed,
+``node_v`` the reduced node voltages [turbine terminals, PCC, SC], ``rows`` the per-turbine real
+results (slots ``Row``), ``scalars`` the complex scalars (slots ``Scalar``).
+
+``out`` of ``evaluate``/``step``: one complex buffer [X+ (size) | dX (size) | node_v (N + 2) |
+scalars]; see ``split``.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+
+import numpy as np
+from numba import njit
+
+from plant.condenser import DELTA, ED2, EFD, EQ1, EQ2, OMEGA, XLL
+from plant.condenser import NX as SC_NX
+from plant.integrator import etd2_correct, etd2_predict
+from plant.layout import GRID_ANGLE, GRID_NX, GRID_PM, GRID_SPEED, PLL_ANGLE, PLL_INTEGRATOR
+from plant.slots import Const, Row, Scalar, Slow
+from plant.turbine import GFL, IF, NS, REMOTE, TH, WR, XB, XD, XI, XP, B, W
+from sdvisc.vocabulary import OMEGA0
+
+N_SCALARS = len(Scalar)
+_OPTS = dict(cache=True, error_model="numpy")  # IEEE division as in numpy
+
+
+@njit(**_OPTS)
+def split(out, size, n):
+    """Views of an evaluation buffer: (X+, dX, node_v, scalars)."""
+    s2 = 2 * size
+    return out[:size], out[size:s2], out[s2:s2 + n + 2], out[s2 + n + 2:]
+
+
+@njit(**_OPTS)
+def solve_network(X, v_load, constants, z_planes, node_v):
+    """Reduced network solve into ``node_v``; returns the sources (E_grid, E''_sc, I_load).
+    ``v_load``: the PCC voltage the constant-PQ load is linearised at (the last solve's)."""
+    m = node_v.size
+    n = m - 2
+    o = NS * n
+    theta_g = X[o + SC_NX + GRID_ANGLE].real
+    if theta_g != 0.0:
+        e_grid = constants[Const.e_grid] * cmath.exp(1j * theta_g)
+    else:
+        e_grid = complex(constants[Const.e_grid], 0.0)
+    e_sc = 0j
+    if constants[Const.sc_connected] != 0.0:
+        e_sc = complex(X[o + EQ2].real, -X[o + ED2].real) * cmath.exp(1j * X[o + DELTA].real)
+    load = complex(constants[Const.load_re], constants[Const.load_im])
+    i_load = 0j
+    if load != 0j:
+        i_load = load.conjugate() * v_load / max(abs(v_load) ** 2, 0.49)
+    u_grid = e_grid * complex(constants[Const.y_grid_re], constants[Const.y_grid_im]) - i_load
+    u_sc = e_sc * complex(constants[Const.y_sc_re], constants[Const.y_sc_im])
+    z_re = z_planes[0]
+    z_im = z_planes[1]
+    v_re = np.zeros(m)
+    v_im = np.zeros(m)
+    for c in range(m):
+        u = X[c] if c < n else (u_grid if c == n else u_sc)
+        for r in range(m):
+            v_re[r] += z_re[c, r] * u.real - z_im[c, r] * u.imag
+            v_im[r] += z_re[c, r] * u.imag + z_im[c, r] * u.real
+    for r in range(m):
+        node_v[r] = complex(v_re[r], v_im[r])
+    return e_grid, e_sc, i_load
+
+
+@njit(**_OPTS)
+def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, dX, rows, want):
+    """Turbine derivatives into dX (and, ``want``, ``rows``); False if a limiter would act."""
+    n = slow.shape[1]
+    kpc, kic, lf = constants[Const.kpc], constants[Const.kic], constants[Const.lf]
+    w0_over_lf, w0_rf_over_lf = constants[Const.w0_over_lf], constants[Const.w0_rf_over_lf]
+    w0_kp_pll, kp_pll, ki_pll = constants[Const.w0_kp_pll], constants[Const.kp_pll], constants[Const.ki_pll]
+    m_max, v_dc_ref = constants[Const.m_max], constants[Const.v_dc_ref]
+    kp_dc, ki_dc, two_over_tau_dc = constants[Const.kp_dc], constants[Const.ki_dc], constants[Const.two_over_tau_dc]
+    p_me_min, v_chop = constants[Const.p_me_min], constants[Const.v_chop]
+    vd_ok = constants[Const.vd_ok]
+    remote_i_ref = constants[Const.remote_i_ref] != 0.0
+    j_lf = complex(0.0, lf)
+    z_filter = complex(constants[Const.rf], lf)
+    for j in range(n):
+        v = node_v[j]
+        i = X[IF * n + j]
+        theta = X[TH * n + j].real
+        x_pll = X[XP * n + j].real
+        to_pll = complex(math.cos(theta), -math.sin(theta))  # e^{-j theta}
+        v_pll = v * to_pll
+        v_d = v_pll.real
+        if vd_ok - v_d > 0.0:  # V_d floor / grid-following current limit
+            return False
+        e_v = v_pll.imag / math.sqrt(v.real * v.real + v.imag * v.imag)
+        j_lf_i = j_lf * i
+        if mode[j] != GFL:  # remote / hd_visc: v_conv given, current-PI integrator frozen
+            if remote_i_ref and mode[j] == REMOTE:  # local loop on the received current reference
+                i_ref = i_hold[j]
+                v_conv = v + z_filter * i_ref + kpc * (i_ref - i)
+            else:
+                v_conv = v_ext[j]
+            g = v_conv - v - j_lf_i
+            e_i = 0j
+        else:
+            e_i = complex(slow[Slow.s_ref_re, j] / v_d, slow[Slow.s_ref_im, j] / v_d) - i * to_pll
+            g = (kpc * e_i + kic * X[XI * n + j]) * to_pll.conjugate()
+            v_conv = v + j_lf_i + g
+        v_dc = math.sqrt(max(X[W * n + j].real, 1e-4))
+        if math.sqrt(v_conv.real * v_conv.real + v_conv.imag * v_conv.imag) - m_max * v_dc > 0.0:
+            return False  # modulation limit
+        e_dc = v_dc_ref - v_dc
+        p_me = kp_dc * e_dc + X[XD * n + j].real
+        if p_me - slow[Slow.p_avail, j] > 0.0 or p_me_min - p_me > 0.0 or v_dc - v_chop > 0.0:
+            return False  # MSC power clip, chopper
+        p_conv = v_conv.real * i.real + v_conv.imag * i.imag
+        dX[IF * n + j] = complex(w0_over_lf * g.real - w0_rf_over_lf * i.real,
+                                 w0_over_lf * g.imag - w0_rf_over_lf * i.imag)
+        dX[XI * n + j] = e_i
+        dX[TH * n + j] = w0_kp_pll * e_v + OMEGA0 * x_pll
+        dX[XP * n + j] = ki_pll * e_v
+        dX[W * n + j] = two_over_tau_dc * p_me - two_over_tau_dc * p_conv
+        dX[XD * n + j] = ki_dc * e_dc
+        dX[WR * n + j] = slow[Slow.p_aero_over_2hw, j] - p_me * slow[Slow.inv_2hw, j]
+        dX[B * n + j] = slow[Slow.d_beta, j]
+        dX[XB * n + j] = slow[Slow.d_xbeta, j]
+        if want:
+            rows[Row.v_d, j] = v.real
+            rows[Row.v_q, j] = v.imag
+            rows[Row.i_d, j] = i.real
+            rows[Row.i_q, j] = i.imag
+            rows[Row.p, j] = v.real * i.real + v.imag * i.imag
+            rows[Row.q, j] = v.imag * i.real - v.real * i.imag
+            rows[Row.v_dc, j] = v_dc
+            rows[Row.omega_meas, j] = (kp_pll * e_v + x_pll) + 1.0
+            rows[Row.p_me, j] = p_me
+            rows[Row.v_conv_re, j] = v_conv.real
+            rows[Row.v_conv_im, j] = v_conv.imag
+    return True
+
+
+@njit(**_OPTS)
+def condenser_rhs(X, o, v_pcc, v_sc, e_sc, constants, dX):
+    """Condenser derivatives (entries o ... o + 6) into dX; returns its current I_sc."""
+    if constants[Const.sc_connected] == 0.0:
+        for k in range(SC_NX):
+            dX[o + k] = 0j
+        return 0j
+    delta, w, eq1, eq2 = X[o + DELTA].real, X[o + OMEGA].real, X[o + EQ1].real, X[o + EQ2].real
+    ed2, xll, efd = X[o + ED2].real, X[o + XLL].real, X[o + EFD].real
+    v_reg = abs(v_pcc) if constants[Const.avr_at_pcc] != 0.0 else abs(v_sc)
+    i_sc = (e_sc - v_sc) / complex(constants[Const.z_sc_re], constants[Const.z_sc_im])
+    i_machine = i_sc * 1j * cmath.exp(-1j * delta)
+    i_d, i_q = i_machine.real, i_machine.imag
+    u = constants[Const.avr_v_ref] - v_reg - constants[Const.m_q] * (v_sc * i_sc.conjugate()).imag
+    d_efd = (constants[Const.avr_k] * (constants[Const.avr_ta_tb] * u + constants[Const.avr_1_minus_ta_tb] * xll)
+             - efd) / constants[Const.avr_te]
+    if (efd >= constants[Const.efd_max] and d_efd > 0) or (efd <= constants[Const.efd_min] and d_efd < 0):
+        d_efd = 0.0
+    dX[o + DELTA] = OMEGA0 * (w - 1.0)
+    dX[o + OMEGA] = (-(ed2 * i_d + eq2 * i_q) - constants[Const.d_sc] * (w - 1.0)) / constants[Const.two_h_sc]
+    dX[o + EQ1] = (efd - eq1 - constants[Const.xd_minus_xd1] * i_d) / constants[Const.td01]
+    dX[o + EQ2] = (eq1 - eq2 - constants[Const.xd1_minus_xd2] * i_d) / constants[Const.td02]
+    dX[o + ED2] = (-ed2 + constants[Const.xq_minus_xd2] * i_q) / constants[Const.tq02]
+    dX[o + XLL] = (u - xll) / constants[Const.avr_tb]
+    dX[o + EFD] = d_efd
+    return i_sc
+
+
+@njit(**_OPTS)
+def grid_and_pll_rhs(X, o, v_pcc, e_grid, constants, dX):
+    """Grid source (entries o ... o + 2) and PCC PLL (o + 3, o + 4) into dX; returns f_pcc [p.u.]."""
+    h_grid = constants[Const.h_grid]
+    if h_grid > 0.0:
+        w_g, p_m = X[o + GRID_SPEED].real, X[o + GRID_PM].real
+        i_g = (e_grid - v_pcc) * complex(constants[Const.y_grid_re], constants[Const.y_grid_im])
+        p_e = (e_grid * i_g.conjugate()).real * constants[Const.grid_power_scale]
+        dX[o + GRID_ANGLE] = OMEGA0 * (w_g - 1.0)
+        dX[o + GRID_SPEED] = (p_m - p_e - constants[Const.d_grid] * (w_g - 1.0)) / (2.0 * h_grid)
+        dX[o + GRID_PM] = (constants[Const.pm0] - (w_g - 1.0) / constants[Const.r_gov] - p_m) / constants[Const.t_gov]
+    else:
+        dX[o + GRID_ANGLE] = 0j
+        dX[o + GRID_SPEED] = 0j
+        dX[o + GRID_PM] = 0j
+    p = o + GRID_NX
+    x_pll = X[p + PLL_INTEGRATOR].real
+    e_v = (v_pcc * cmath.exp(-1j * X[p + PLL_ANGLE].real)).imag / max(abs(v_pcc), 0.1)
+    kp_pll = constants[Const.kp_pll]
+    dX[p + PLL_ANGLE] = OMEGA0 * (kp_pll * e_v + x_pll)
+    dX[p + PLL_INTEGRATOR] = constants[Const.ki_pll] * e_v
+    return 1.0 + kp_pll * e_v + x_pll
+
+
+@njit(**_OPTS)
+def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, dX, rows, scalars, want):
+    """dX of state X whose network solve is ``node_v`` with ``sources`` (solve_network); False if a
+    limiter would act (dX incomplete)."""
+    if not turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, dX, rows, want):
+        return False
+    n = slow.shape[1]
+    e_grid, e_sc, i_load = sources
+    v_pcc, v_sc = node_v[n], node_v[n + 1]
+    o = NS * n
+    i_sc = condenser_rhs(X, o, v_pcc, v_sc, e_sc, constants, dX)
+    f_pcc_pu = grid_and_pll_rhs(X, o + SC_NX, v_pcc, e_grid, constants, dX)
+    if want:
+        scalars[Scalar.i_sc] = i_sc
+        scalars[Scalar.e_grid] = e_grid
+        scalars[Scalar.e_sc] = e_sc
+        scalars[Scalar.i_load] = i_load
+        scalars[Scalar.f_pcc_pu] = f_pcc_pu
+    return True
+
+
+@njit(**_OPTS)
+def rhs(X, v_load, constants, slow, mode, v_ext, i_hold, z_planes, dX, node_v, rows, scalars, want):
+    """The plant's right-hand side (no law): network solve, then ``rhs_given_network``."""
+    sources = solve_network(X, v_load, constants, z_planes, node_v)
+    return rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, dX, rows, scalars, want)
+
+
+@njit(**_OPTS)
+def evaluate(X, v_load, constants, slow, mode, v_ext, i_hold, z_planes, out, rows):
+    """One evaluation of X with its results (the cached first stage of the next step) into ``out``
+    (dX, node_v, scalars) and ``rows``; False: the numpy path evaluates it."""
+    _, dX, node_v, scalars = split(out, X.size, slow.shape[1])
+    return rhs(X, v_load, constants, slow, mode, v_ext, i_hold, z_planes, dX, node_v, rows, scalars, True)
+
+
+@njit(**_OPTS)
+def step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, z_planes, out, rows, evaluate_next):
+    """One ETD2 step from X with first stage k1 (``Etd2Coefficients.rows``) into ``out``'s X+ and,
+    with ``evaluate_next``, the evaluation of X+ into the rest of ``out`` and ``rows``. Returns 0
+    (done), 1 (the second stage needs the numpy path; nothing written) or 2 (X+ done, its
+    evaluation needs the numpy path)."""
+    size = X.size
+    x_next, dX_next, node_v, scalars = split(out, size, slow.shape[1])
+    a = np.empty(size, dtype=np.complex128)
+    k2 = np.empty(size, dtype=np.complex128)
+    a_f, k1_f, k2_f = a.view(np.float64), k1.view(np.float64), k2.view(np.float64)
+    etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
+    if not rhs(a, v_load, constants, slow, mode, v_ext, i_hold, z_planes, k2, node_v, rows, scalars, False):
+        return 1
+    etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
+    if not evaluate_next:
+        return 0
+    if not rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, z_planes, dX_next, node_v, rows, scalars, True):
+        return 2
+    return 0
+
+
+@njit(**_OPTS)
+def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
+    """The slow mechanical terms (TurbineBank.slow_terms) into ``slow`` (rows ``Slow``);
+    returns (vd_ok, min P_avail)."""
+    n = v_wind.shape[0]
+    v_wind_rated, lambda_opt, cp_opt = constants[Const.v_wind_rated], constants[Const.lambda_opt], constants[Const.cp_opt]
+    p_me_max, p_headroom = constants[Const.p_me_max], constants[Const.p_headroom]
+    omega_r_ref = constants[Const.omega_r_ref]
+    kp_beta, ki_beta, beta_max = constants[Const.kp_beta], constants[Const.ki_beta], constants[Const.beta_max]
+    tau_beta, rate_beta, h_rotor = constants[Const.tau_beta], constants[Const.rate_beta], constants[Const.h_rotor]
+    s_max = 0.0
+    p_avail_min = np.inf
+    for j in range(n):
+        w_r = X[WR * n + j].real
+        beta = X[B * n + j].real
+        v_ratio = v_wind[j] / v_wind_rated
+        lam = lambda_opt * max(w_r, 0.05) / v_ratio
+        li = 1.0 / (lam + 0.08 * beta) - 0.035 / (beta ** 3 + 1.0)
+        cp = 0.5176 * (116.0 * li - 0.4 * beta - 5.0) * math.exp(-21.0 * li) + 0.0068 * lam
+        p_aero = max(cp, 0.0) / cp_opt * v_ratio ** 3
+        p_avail = min(p_me_max, max(p_aero, 0.0) + p_headroom)
+        p_star = min(max(w_r, 0.0) ** 3, 1.0) if mppt[j] else p_cmd[j]
+        e_w = w_r - omega_r_ref
+        beta_ref_u = kp_beta * e_w + X[XB * n + j].real
+        beta_ref = max(min(beta_ref_u, beta_max), 0.0)
+        windup = (beta_ref_u <= 0.0 and e_w < 0) or (beta_ref_u >= beta_max and e_w > 0)
+        inv_2hw = 1.0 / (2.0 * h_rotor * max(w_r, 0.1))
+        slow[Slow.s_ref_re, j] = p_star
+        slow[Slow.s_ref_im, j] = -q_cmd[j]
+        slow[Slow.p_aero_over_2hw, j] = p_aero * inv_2hw
+        slow[Slow.inv_2hw, j] = inv_2hw
+        slow[Slow.d_beta, j] = max(min((beta_ref - beta) / tau_beta, rate_beta), -rate_beta)
+        slow[Slow.d_xbeta, j] = 0.0 if windup else ki_beta * e_w
+        slow[Slow.p_avail, j] = p_avail
+        slow[Slow.p_aero, j] = p_aero
+        s_max = max(s_max, math.sqrt(p_star * p_star + q_cmd[j] * q_cmd[j]))
+        p_avail_min = min(p_avail_min, p_avail)
+    return max(0.3, s_max / constants[Const.i_max_gfl]), p_avail_min
