@@ -12,7 +12,7 @@ from mininet.cli import CLI
 
 
 class TestbedCLI(CLI):
-    """Mininet CLI with ``status``, ``tables``, ``visc``, ``paths`` and ``flows``."""
+    """Mininet CLI with ``status``, ``tables``, ``paths``, ``visc``, ``link`` and ``summary``."""
 
     prompt = "sdvisc> "
 
@@ -65,7 +65,9 @@ class TestbedCLI(CLI):
         for item in parts[2:]:
             key, _, value = item.partition("=")
             params[key] = float(value)
-        self.testbed._to_stdin("owfcc.owfcc", {"cmd": f"visc_{parts[1]}", "wt": parts[0], "params": params})
+        if not self.testbed.command("owfcc.owfcc", {"cmd": f"visc_{parts[1]}", "wt": parts[0], "params": params}):
+            print("the OWFCC is not running: request not sent")
+            return
         print(f"requested visc_{parts[1]} for {parts[0]}")
 
     def do_link(self, line):
@@ -82,8 +84,7 @@ class TestbedCLI(CLI):
             print(f"link {a} {b}: {exc}")
             return
         t = round(t_wall - self.testbed.t0, 6)
-        self.testbed.timeline_events.append({"t": t, "t_effective": t, "source": "cli", "type": f"link_{state}",
-                                         "a": a, "b": b})
+        self.testbed.record({"t": t, "t_effective": t, "source": "cli", "type": f"link_{state}", "a": a, "b": b})
         print(f"t={t:.3f} s: link {a}-{b} {state}")
 
     def do_summary(self, _line):

@@ -1,0 +1,177 @@
+"""The run's processes: started (in the root namespace or a Mininet host), fed JSON-line commands,
+waited for, restarted after a crash, and stopped so that they write their statistics.
+
+A service that exits without being told to (a crash) is restarted, at most :data:`MAX_RESTARTS`
+times per run (event ``service_restarted``, ``summary.json`` ``restarts``); a planned kill of the
+timeline never is. While no SDN application runs at all, the interval is recorded
+(``no_controller``) so that recoveries can say why nothing reacted.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import threading
+import time
+from pathlib import Path
+
+MAX_RESTARTS = 3  # per service and run
+RESTARTABLE = (".sdc", "owfcc.owfcc", "controller", "controller2")  # the plant is the run's clock: never
+CONTROLLERS = ("controller", "controller2")
+READY_TIMEOUT_S = 120.0
+
+
+class RunError(RuntimeError):
+    """The run could not be set up or did not complete."""
+
+
+class Processes:
+    """Every process of one run (see the module docstring); ``record`` adds a runner event."""
+
+    def __init__(self, out: Path, record) -> None:
+        self.out = out
+        self.record = record
+        self.procs: dict[str, subprocess.Popen] = {}
+        self.specs: dict[str, tuple] = {}  # how each service was started (to restart it)
+        self.killed: set[str] = set()  # planned kills: never restarted
+        self.restarts: dict[str, list[dict]] = {}
+        self.exited_early: dict[str, int] = {}
+        self.no_controller: list[list[float | None]] = []  # [t_from, t_to or None]: no SDN app running
+        self.controllers_stopping = False
+        self._stdin_lock = threading.Lock()
+
+    def start(self, name: str, args: list[str], host=None, stdin=None, mode: str = "w") -> subprocess.Popen:
+        """Start ``args`` as ``name`` (in Mininet ``host``'s namespace if given); output to ``name.log``."""
+        self.specs[name] = (args, host, stdin)
+        log = open(self.out / f"{name}.log", mode)  # noqa: SIM115 - owned by the process
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        if host is None:
+            proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
+                                    start_new_session=True)
+        else:
+            proc = host.popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env)
+        self.procs[name] = proc
+        return proc
+
+    def alive(self, name: str) -> bool:
+        proc = self.procs.get(name)
+        return proc is not None and proc.poll() is None
+
+    def send(self, name: str, obj: dict) -> bool:
+        """One JSON-line command to ``name``'s stdin; False if it is not running."""
+        proc = self.procs.get(name)
+        if proc is None or proc.poll() is not None or proc.stdin is None:
+            return False
+        with self._stdin_lock:
+            try:
+                proc.stdin.write((json.dumps(obj) + "\n").encode())
+                proc.stdin.flush()
+            except (BrokenPipeError, OSError):
+                return False
+        return True
+
+    def kill(self, name: str, *, crash: bool) -> bool:
+        """SIGKILL ``name``: a planned stop (never restarted) or, with ``crash``, a crash."""
+        proc = self.procs.get(name)
+        if proc is None or proc.poll() is not None:
+            return False
+        if not crash:
+            self.killed.add(name)
+        proc.kill()
+        return True
+
+    def wait_ready(self, name: str, ready_file: str, what: str, timeout_s: float = READY_TIMEOUT_S) -> dict:
+        """Wait for a service's ``ready_file`` (JSON, written atomically once it has warmed up: its
+        first run on a machine compiles numba code, some seconds); returns its content."""
+        ready, end = self.out / ready_file, time.time() + timeout_s
+        while True:
+            try:
+                return json.loads(ready.read_text())
+            except (OSError, ValueError):
+                pass
+            log = self.out / f"{name}.log"
+            if self.procs[name].poll() is not None:
+                raise RunError(f"{what} exited during start-up; see {log}")
+            if time.time() > end:
+                raise RunError(f"{what} not ready after {timeout_s:.0f} s; see {log}")
+            time.sleep(0.02)
+
+    # ------------------------------------------------------------------ while the run plays
+    def supervise(self, t: float | None) -> None:
+        """Restart what crashed; track whether any SDN application runs (``t``: scenario time)."""
+        if self.controllers_stopping:
+            return
+        for name, proc in list(self.procs.items()):
+            code = proc.poll()
+            if code is None or name in self.killed or not name.endswith(RESTARTABLE):
+                continue
+            done = self.restarts.setdefault(name, [])
+            if len(done) >= MAX_RESTARTS:
+                continue
+            args, host, stdin = self.specs[name]
+            try:
+                self.start(name, args, host=host, stdin=stdin, mode="a")
+            except OSError as exc:
+                done.append({"t": t, "exit_code": code, "error": str(exc)})
+                continue
+            done.append({"t": t, "exit_code": code})
+            self.record({"t": t, "source": "runner", "type": "service_restarted", "process": name,
+                         "exit_code": code, "restart": len(done)})
+        if t is not None and any(n in self.procs for n in CONTROLLERS):
+            self._track_controllers(t)
+
+    def controllers_running(self) -> bool:
+        return any(self.alive(n) for n in CONTROLLERS if n in self.procs)
+
+    def _track_controllers(self, t: float) -> None:
+        running = self.controllers_running()
+        if not running and (not self.no_controller or self.no_controller[-1][1] is not None):
+            self.no_controller.append([t, None])
+            self.record({"t": t, "source": "runner", "type": "no_controller"})
+        elif running and self.no_controller and self.no_controller[-1][1] is None:
+            self.no_controller[-1][1] = t
+
+    def stop_controllers(self) -> None:
+        """The scenario is over: no decisions on the plant's last packets."""
+        if self.controllers_stopping:
+            return
+        self.controllers_stopping = True
+        for name in CONTROLLERS:
+            if self.alive(name):
+                self.procs[name].send_signal(signal.SIGTERM)
+
+    # ------------------------------------------------------------------ the end
+    def stop_all(self) -> None:
+        """Stop every process so it writes its statistics (SIGTERM/EOF, then SIGKILL)."""
+        for name, proc in self.procs.items():
+            code = proc.poll()
+            if code is not None and name != "plant" and not (name.endswith(".fuzz") and code == 0):
+                self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
+        # the SDN app first, so the end of the plant's packets is not mistaken for a failure
+        order = (["owfcc.owfcc", *CONTROLLERS, "plant"] + [n for n in self.procs if n.endswith(".sdc")]
+                 + [n for n in self.procs if n.endswith(".tcpdump")])
+        for name in order:
+            proc = self.procs.get(name)
+            if proc is None or proc.poll() is not None:
+                continue
+            if proc.stdin:
+                try:
+                    proc.stdin.close()
+                except OSError:
+                    pass
+            if not (name in CONTROLLERS and self.controllers_stopping):
+                proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
+            if name in CONTROLLERS:
+                try:
+                    proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+        deadline = time.time() + 5
+        for proc in self.procs.values():
+            try:
+                proc.wait(timeout=max(0.1, deadline - time.time()))
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()

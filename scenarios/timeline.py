@@ -1,0 +1,90 @@
+"""Carrying out a scenario's timeline actions: requests through the OWFCC, link failures, kills and
+crashes, plant commands, hostile traffic. Each action is recorded (``events.jsonl``, source
+``timeline``) with what actually happened (e.g. ``t_effective`` of a link failure)."""
+
+from __future__ import annotations
+
+import json
+import sys
+import threading
+import time
+
+from sdvisc import wire
+from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC
+
+PLANT_COMMANDS = {"set": lambda e: {"type": "set", "param": e.param, "value": e.value},
+                  "load_step": lambda e: {"type": "load_step", "mw": e.mw},
+                  "scr": lambda e: {"type": "scr", "value": e.value}}
+
+
+class Timeline:
+    """Acts on a running :class:`scenarios.runner.Run` (its processes, network and SDN state)."""
+
+    def __init__(self, run) -> None:
+        self.run = run
+
+    def dispatch(self, event, t: float) -> dict:
+        """Carry out one timeline event now (``t``: scenario time); returns its record."""
+        run, kind = self.run, event.do
+        record = {"t": round(t, 6), "source": "timeline", "type": kind, **event.model_dump(exclude={"t", "do"})}
+        run.record(record)
+        if kind in ("visc_on", "visc_off", "set_params"):
+            run.processes.send("owfcc.owfcc", {"cmd": kind, "wt": event.wt, "params": getattr(event, "params", {})})
+        elif kind in ("link_down", "link_up"):
+            record["t_effective"] = round(run.set_link(event.a, event.b, kind == "link_up") - run.t0, 6)
+        elif kind == "path_link_down":
+            link = run.current_path_link(event.wt, event.hop)
+            if link is None:
+                record.update(type="path_link_down_skipped",
+                              reason=f"{event.wt} has no installed path with switch-to-switch links")
+            else:
+                record.update(type="link_down", a=link[0], b=link[1], requested="path_link_down")
+                record["t_effective"] = round(run.set_link(link[0], link[1], False) - run.t0, 6)
+        elif kind == "restore_links":
+            down = sorted(run.links_down)
+            for a, b in down:
+                run.set_link(a, b, True)
+            record["links"] = down
+        elif kind == "kill":
+            name = event.process if event.process.startswith("controller") else f"{event.host}.{event.process}"
+            run.processes.kill(name, crash=event.crash)
+        elif kind in ("fuzz", "spoof_ak"):
+            record["out"] = self.start_fuzzer(event, sum(e["type"] == kind for e in run.timeline_events))
+        elif kind in PLANT_COMMANDS:
+            run.processes.send("plant", PLANT_COMMANDS[kind](event))
+        elif kind == "fault":
+            run.processes.send("plant", {"type": "fault", "on": True})
+            timer = threading.Timer(max(0.0, run.t0 + t + event.duration_s - time.time()),
+                                    run.processes.send, args=("plant", {"type": "fault", "on": False}))
+            timer.daemon = True
+            timer.start()
+        return record
+
+    def start_fuzzer(self, event, number: int) -> str:
+        """Start :mod:`sdvisc.fuzz` in ``event.host``'s namespace: hostile datagrams at
+        ``event.targets`` (``fuzz``) or AKs for another turbine (``spoof_ak``)."""
+        run = self.run
+        hosts = run.desc["hosts"]
+        me = hosts[event.host]
+        name = f"{event.do}{number}_{event.host}"
+        cfg = {"count": event.count, "duration_s": event.duration_s, "out": str(run.out / f"{name}.json")}
+        if event.do == "spoof_ak":
+            victim = hosts[event.victim]
+            who = victim if event.impersonate else me
+            cfg.update(mode="spoof_ak", victim_wid=wire.turbine_id(victim["cluster"], victim["number"]), ak=event.ak,
+                       src_ip=who["ip"], src_mac=who["mac"], dst_ip=CONTROLLER_VIP, dst_mac=CONTROLLER_VMAC,
+                       iface=run.net.get(event.host).defaultIntf().name, seq0=100_000)
+        else:
+            def port(target: str) -> int:
+                if hosts[target]["role"] == "turbine":
+                    return wire.PORT_TURBINE
+                return wire.PORT_OWFCC if target == "owfcc" else wire.PORT_SDC
+
+            cfg.update(targets=[[CONTROLLER_VIP, wire.PORT_CONTROLLER] if t == "controller" else [hosts[t]["ip"], port(t)]
+                                for t in event.targets], seed=event.seed, step_s=run.scenario.step_s,
+                       wid=wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101)
+        path = run.out / f"{name}_config.json"
+        path.write_text(json.dumps(cfg, indent=1))
+        run.processes.start(f"{name}.fuzz", [sys.executable, "-m", "sdvisc.fuzz", "--config", str(path)],
+                            host=run.net.get(event.host))
+        return f"{name}.json"
