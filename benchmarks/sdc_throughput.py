@@ -43,12 +43,12 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sdc_unit.bank import ControllerBank  # noqa: E402
 from sdvisc import wire  # noqa: E402
+from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS  # noqa: E402
 from sdvisc.wire_batch import decode_batch, encode_batch  # noqa: E402
 
 TS = 0.67e-3
 LATE_LIMIT = 0.01
 N_SAMPLES = 64  # distinct pre-encoded measurement samples per turbine (cycled)
-CTRL_KEYS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")  # as sdc_unit.service
 
 
 # --------------------------------------------------------------------------- workload
@@ -82,7 +82,7 @@ def encoded_meas(n: int, samples: list[dict[str, np.ndarray]], header: bool = Tr
         row = []
         for j in range(n):
             values = {"wt": wire.turbine_id(j // 10 + 1, j % 10 + 1), "seq": k, "t_sim": k * TS,
-                      **{key: float(m[key][j]) for key in ControllerBank.MEAS_KEYS}}
+                      **{key: float(m[key][j]) for key in MEAS_FIELDS}}
             row.append(wire.encode(wire.MsgType.MEAS, values, header=wire.Header(k, 0, 0) if header else None))
         packets.append(row)
     return packets
@@ -119,12 +119,12 @@ class ServiceRound:
     def full(self) -> int:
         """Returns the number of CTRL bytes produced (keeps the work observable)."""
         rec, _ = decode_batch(self.packets[self.k % N_SAMPLES], wire.MsgType.MEAS, header=self.header, stats=self.stats)
-        meas = {key: rec[key].astype(float) for key in ControllerBank.MEAS_KEYS}
+        meas = {key: rec[key].astype(float) for key in MEAS_FIELDS}
         out, valid = self.bank.step(self.slots, meas)
         now = time.time()
         sec = int(now)
         self.ctrl_seq += 1
-        cols = {key: out[key][valid] for key in CTRL_KEYS}
+        cols = {key: out[key][valid] for key in CTRL_OUTPUTS}
         cols.update(wt=rec["wt"][valid], seq=self.ctrl_seq, meas_seq=rec["seq"][valid],
                     flags=out["limited"][valid].astype(int))
         hdr = (self.ctrl_seq, sec, int((now - sec) * 1e9)) if self.header else None

@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass
 
 from sdvisc import wire
+from sdvisc.vocabulary import MEAS_FIELDS, VISC_PARAMS
 
 MEAS_ABS_MAX_PU = 100.0
 """Largest magnitude of a per-unit measurement (voltage, current, power, DC voltage, frequency)."""
@@ -44,8 +45,8 @@ PARAM_LIMITS: dict[str, tuple[float, float]] = {
     "v_ref": (0.5, 1.5),    # voltage reference, p.u.
     "q_ref": (-10.0, 10.0),  # reactive-power reference, p.u.
 }
-"""Accepted range of each parameter a REQUEST can set (only the bits of its ``mask`` count)."""
-PARAM_BITS = {1: "h", 2: "d", 4: "m_q", 8: "v_ref", 16: "q_ref"}
+"""Accepted range of each parameter a REQUEST can set (only the bits of its ``mask`` count; ``supp``
+is a bit field, any value is a valid one)."""
 
 
 def t_sim_tolerance(t_sim: float, step_s: float) -> float:
@@ -59,18 +60,16 @@ def meas_out_of_range(values: dict) -> bool:
     t_sim = values["t_sim"]
     if not 0.0 <= t_sim <= T_SIM_MAX_S:
         return True
-    return any(abs(values[k]) > MEAS_ABS_MAX_PU for k in ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas"))
+    return any(abs(values[k]) > MEAS_ABS_MAX_PU for k in MEAS_FIELDS)
 
 
 def bad_params(values: dict) -> list[str]:
     """Names of the parameters a REQUEST marks (``mask``) whose value is outside PARAM_LIMITS."""
     mask = int(values.get("mask", 0))
     bad = []
-    for bit, name in PARAM_BITS.items():
-        if mask & bit:
-            lo, hi = PARAM_LIMITS[name]
-            if not lo <= values[name] <= hi:
-                bad.append(name)
+    for name, (lo, hi) in PARAM_LIMITS.items():
+        if mask & VISC_PARAMS[name] and not lo <= values[name] <= hi:
+            bad.append(name)
     return bad
 
 

@@ -15,27 +15,21 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from sdc_unit.law import MEAS_FIELDS
+from sdc_unit.blocks import METHODS as VISC_METHODS
+from sdc_unit.discrete import DiscreteVisc
+from sdc_unit.params import ViscParams
+from sdvisc.vocabulary import CTRL_OUTPUTS, FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS, params_from_mask
 
-VISC_METHODS = ("tustin", "trapezoid_cumulative", "euler")
 METHODS = VISC_METHODS + ("hold",)
-OUT_KEYS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "limited")
-PARAM_NAMES = {1: "h", 2: "d", 4: "m_q", 8: "v_ref", 16: "q_ref", 32: "supp"}
-
-
-def params_from_mask(params: dict) -> dict:
-    """The parameters a REQUEST marks as meaningful (``mask`` bits), by name."""
-    mask = int(params.get("mask", 0))
-    return {name: params[name] for bit, name in PARAM_NAMES.items() if mask & bit}
+OUT_KEYS = CTRL_OUTPUTS + ("limited",)
+"""What :meth:`ControllerBank.step` returns per slot: the CTRL values and the limiter flag."""
 
 
 class ControllerBank:
     """``capacity`` controller slots stepped in one vectorised call."""
 
-    MEAS_KEYS = MEAS_FIELDS  # ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
-
     def __init__(self, capacity: int, step_s: float, method: str = "tustin", dtype: str = "float64",
-                 r_f: float = 0.003, x_f: float = 0.08) -> None:
+                 r_f: float = FILTER_R_F_PU, x_f: float = FILTER_X_F_PU) -> None:
         if method not in METHODS:
             raise ValueError(f"SDC method must be one of {METHODS}, got {method!r}")
         self.capacity = capacity
@@ -47,9 +41,6 @@ class ControllerBank:
         self.hold_v = np.zeros(capacity, dtype=complex)
         self.visc = None
         if method in VISC_METHODS:
-            from sdc_unit.discrete import DiscreteVisc
-            from sdc_unit.params import ViscParams
-
             self.visc = DiscreteVisc(capacity, ViscParams(), ts=step_s, method=method,
                                      dtype=np.float32 if dtype == "float32" else np.float64)
 
@@ -91,7 +82,7 @@ class ControllerBank:
         for j, slot in enumerate(slots):
             if self.initialised[slot]:
                 continue
-            one = {k: meas[k][j : j + 1] for k in self.MEAS_KEYS}
+            one = {k: meas[k][j : j + 1] for k in MEAS_FIELDS}
             v = one["v_d"][0] + 1j * one["v_q"][0]
             i = one["i_d"][0] + 1j * one["i_q"][0]
             self.hold_v[slot] = v + self.z_f * i
@@ -104,14 +95,14 @@ class ControllerBank:
     def track(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> None:
         """Warm standby: follow ``slots``' measurements (initialise, then advance states) without output."""
         slots = np.asarray(slots)
-        finite = np.all([np.isfinite(meas[k]) for k in self.MEAS_KEYS], axis=0)
+        finite = np.all([np.isfinite(meas[k]) for k in MEAS_FIELDS], axis=0)
         fresh = finite & ~self.initialised[slots]
         self._initialise(slots[fresh], {k: v[fresh] for k, v in meas.items()})
         follow = finite & ~fresh
         if self.visc is None or not follow.any():
             return
-        full = {k: np.zeros(self.capacity) for k in self.MEAS_KEYS}
-        for k in self.MEAS_KEYS:
+        full = {k: np.zeros(self.capacity) for k in MEAS_FIELDS}
+        for k in MEAS_FIELDS:
             full[k][slots[follow]] = meas[k][follow]
         self.visc.track(SimpleNamespace(**full), index=slots[follow])
 
@@ -120,7 +111,7 @@ class ControllerBank:
         slots = np.asarray(slots, dtype=np.intp)
         if slots.size == 0:
             return {k: np.zeros(0, dtype=bool if k == "limited" else float) for k in OUT_KEYS}, np.zeros(0, dtype=bool)
-        rows = np.array([meas[k] for k in self.MEAS_KEYS], dtype=float)
+        rows = np.array([meas[k] for k in MEAS_FIELDS], dtype=float)
         usable = np.isfinite(rows).all(axis=0) & self.started[slots]
         all_usable = bool(usable.all())
         used = slots if all_usable else slots[usable]
@@ -137,16 +128,24 @@ class ControllerBank:
         return self._step_visc(slots, rows, usable, used, all_usable)
 
     def _step_visc(self, slots, rows, usable, used, all_usable):
-        full = np.zeros((len(self.MEAS_KEYS), self.capacity))
+        full = np.zeros((len(MEAS_FIELDS), self.capacity))
         full[:, used] = rows if all_usable else rows[:, usable]
         saved = self.visc.active.copy()
         stepping = np.zeros(self.capacity, dtype=bool)
         stepping[used] = True
         self.visc.active &= stepping
         try:
-            result = self.visc.step(full)  # rows in MEAS_KEYS order (= law.MEAS_FIELDS)
+            result = self.visc.step(full)  # rows in MEAS_FIELDS order
         finally:
             self.visc.active[:] = saved
         valid = usable & result.valid[slots]
         out = {k: getattr(result, k)[slots] for k in OUT_KEYS}
         return out, valid
+
+
+def precompile() -> None:
+    """Compile (or load from numba's on-disk cache) the compiled Tustin step for float64 and float32,
+    so that an SDC started in a run does not spend seconds compiling (``./testbed`` and the Docker
+    build call this)."""
+    for dtype in ("float64", "float32"):
+        ControllerBank(2, 0.67e-3, dtype=dtype).warm_up(steps=2)

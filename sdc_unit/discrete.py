@@ -19,24 +19,16 @@ from __future__ import annotations
 
 import numpy as np
 
+from sdvisc.vocabulary import MEAS_FIELDS
+
 from . import law
-from .blocks import METHODS, make_first_order, make_pi, make_swing
-from .law import MEAS_FIELDS, Outputs
-from .law_kernels import circular_limit, qsem_current
+from .blocks import METHODS, make_first_order, make_pi
+from .engines import ENGINES, OUT_FIELDS, make_engine
+from .law import Outputs
 from .params import RUNTIME_PARAMS, ViscParams
+from .swing import make_swing
 
-try:  # the compiled Tustin step; without numba the blocks are used (same results, slower)
-    from . import tustin_jit as jit
-except ImportError:  # pragma: no cover - numba is a declared dependency
-    jit = None
-
-ENGINES = ("auto", "jit", "blocks")
-"""How a Tustin sample is evaluated: "blocks" calls one block object per transfer function (the
-reference, and the only engine of the other methods); "jit" is the same arithmetic compiled with
-numba (:mod:`sdc_unit.tustin_jit`; float64 bit-identical, float32 to a few ulps, from the float32
-cos/sin); "auto" = "jit" when available, else "blocks"."""
-
-OUT_FIELDS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "v_f", "p_e")
+__all__ = ["DiscreteVisc", "ENGINES", "OUT_FIELDS"]
 
 
 class DiscreteVisc:
@@ -105,13 +97,7 @@ class DiscreteVisc:
         self.last = {f: np.zeros(n) for f in OUT_FIELDS}
         self.last_limited = np.zeros(n, dtype=bool)
         self.active = np.zeros(n, dtype=bool)
-        if engine not in ENGINES:
-            raise ValueError(f"engine must be one of {ENGINES}")
-        self.engine = engine
-        self._jit = self._jit_tables() if method == "tustin" and engine in ("auto", "jit") else None
-        self._jit_stale = True
-        if engine == "jit" and self._jit is None:
-            raise ValueError("engine 'jit' needs method 'tustin', numba and scalar switches")
+        self.engine = make_engine(self, engine)  # after the blocks and memory it works on
 
     # ------------------------------------------------------------------ helpers
     def _mask(self, index) -> np.ndarray:
@@ -149,135 +135,6 @@ class DiscreteVisc:
     def _c(self, x):
         return np.broadcast_to(np.asarray(x, dtype=float), (self.n,)).astype(self.dtype)
 
-    # ------------------------------------------------------------------ core
-    def _advance(self, m: dict, mask: np.ndarray):
-        """One sample. The limiter decides P_e (swing), the v_f hold and the AVR anti-windup of the
-        SAME sample: a trial pass predicts the limiter state from the last one, then the committed
-        pass uses that prediction (no one-sample lag, no algebraic loop).
-
-        When no stepped instance was limited at the last sample and none is in the trial, the
-        committed pass would repeat the trial's arithmetic exactly (P_e is the measured p, nothing
-        is held), so the trial is kept as the result. Otherwise the trial's states are rolled back
-        (blocks replace their state arrays, never write into them, so keeping the old references
-        is a complete snapshot) and the committed pass runs."""
-        if self._jit is not None:  # the same logic, compiled
-            return self._advance_jit(m, mask)
-        lim_last = self.mem["limited"] > 0
-        saved = [(b, dict(b.s)) for b in self.blocks.values()]
-        trial = self._pass(m, mask, (lim_last, self.mem["ild"], self.mem["ilq"]))
-        limited = trial[2]
-        if not (np.any(lim_last & mask) or np.any(limited & mask)):
-            return self._commit_pass(mask, *trial)
-        for b, states in saved:
-            b.s = states
-        lim_pred = (limited, trial[0]["ild"], trial[0]["ilq"])
-        return self._commit_pass(mask, *self._pass(m, mask, lim_pred))
-
-    def _jit_tables(self):
-        """Constants and flags of the compiled step, or None where it cannot be used."""
-        if jit is None:
-            return None
-        p, dt = self.p, self.dtype
-        flags = (p.freeze_vf_when_limited, p.omega_s_measured, p.avr_antiwindup, p.ff_filtered, self.swing.wrap)
-        if any(np.ndim(f) for f in flags):
-            return None  # per-instance switches: the numpy pass handles them
-        consts = dict(one=1.0, zero=0.0, two=2.0, two_pi=2.0 * np.pi, swing_scale_ts=self.swing.scale * self.ts,
-                      p_ref=p.p_ref, e_ref=p.e_ref, i_max=p.i_max, l_f=p.l_f, r_v=p.r_v, l_v=p.l_v,
-                      lpf_d_dc=self.lpf_d.dc, lpf_q_dc=self.lpf_q.dc)
-        return (np.array([consts[k] for k in jit.CONST_NAMES], dtype=dt), np.array([bool(f) for f in flags], dtype=np.int64))
-
-    def _stack_for_jit(self) -> None:
-        """Matrices of the compiled step; the dicts' entries become their rows (views), so the step
-        updates states, memory and outputs in place. Called again after anything outside the step
-        replaced those arrays (``_jit_stale``)."""
-        dt, blocks = self.dtype, self.blocks
-        self._x = np.array([blocks[b].s[s] for b, s in jit.STATE_ROWS], dtype=dt)
-        for (b, s), row in zip(jit.STATE_ROWS, self._x):
-            blocks[b].s[s] = row
-        self._coef = np.array([getattr(blocks[b], c) for b, c in jit.COEF_ROWS], dtype=dt)
-        self._refs = np.array([self.rp[k] for k in jit.REF_ROWS]).astype(dt)
-        self._mem = np.array([self.mem[k] for k in jit.MEM_ROWS], dtype=dt)
-        self.mem.update(zip(jit.MEM_ROWS, self._mem))
-        self._last = np.array([self.last[f] for f in jit.OUT_ROWS], dtype=float)
-        self.last.update(zip(jit.OUT_ROWS, self._last))
-        self._jit_stale = False
-
-    def _advance_jit(self, m, mask: np.ndarray) -> np.ndarray:
-        """``m``: the measurements as a dict of rows or a (8, n) matrix in the working precision."""
-        if self._jit_stale:
-            self._stack_for_jit()
-        consts, flags = self._jit
-        meas = getattr(m, "matrix", None)  # jit.MEAS_ROWS is MEAS_FIELDS' order
-        if meas is None:
-            meas = np.array([m[k] for k in jit.MEAS_ROWS], dtype=self.dtype)
-        limited = self.last_limited.copy()
-        ok = np.empty(self.n, dtype=bool)
-        jit.tustin_step(self._x, self._coef, consts, flags, meas, self._refs, self._mem, mask, self._last, limited, ok)
-        self.last_limited = limited
-        return ok
-
-    def _commit_pass(self, mask: np.ndarray, new_mem: dict, out: dict, limited: np.ndarray) -> np.ndarray:
-        dt = self.dtype  # stacked selects; the dicts hold rows of the results
-        keys = tuple(new_mem)
-        mem = np.where(mask, np.array([new_mem[k] for k in keys], dtype=dt), np.array([self.mem[k] for k in keys], dtype=dt))
-        self.mem.update(zip(keys, mem))
-        outs = np.array([out[f] for f in OUT_FIELDS], dtype=float)
-        ok = mask & np.isfinite(outs).all(axis=0)
-        last = np.where(ok, outs, np.array([self.last[f] for f in OUT_FIELDS], dtype=float))
-        self.last.update(zip(OUT_FIELDS, last))
-        self.last_limited = np.where(ok, limited, self.last_limited)
-        return ok
-
-    def _pass(self, m: dict, mask: np.ndarray, lim_pred):
-        """Evaluate one sample with the limiter state ``lim_pred`` = (limited, i_d, i_q) assumed for
-        P_e, the v_f hold and the AVR anti-windup; block states are committed where ``mask``.
-        Returns (new memory, outputs, limited)."""
-        p, dt, c = self.p, self.dtype, self._c
-        one = dt.type(1.0)
-        lim_prev, ild_pred, ilq_pred = lim_pred
-        hold = lim_prev if p.freeze_vf_when_limited else None
-        vfd = self.lpf_d.step(m["v_d"], mask, hold)
-        vfq = self.lpf_q.step(m["v_q"], mask, hold)
-        om_s = np.where(p.omega_s_measured, m["omega_meas"], one).astype(dt)
-        # swing
-        p_lim = m["v_d"] * ild_pred + m["v_q"] * ilq_pred
-        p_e = np.where(lim_prev, p_lim, m["p"])
-        t_err = c(p.p_ref) - p_e
-        delta, dev = self.swing.step(t_err, om_s - one, mask)
-        omega = one + dev
-        # virtual friction, input omega_s - omega
-        a = self.f_lpf.step(om_s - omega, mask)
-        y = self.f_w1.step(a, mask) + self.f_w2.step(a, mask)
-        vfr = self.f_ll2.step(self.f_ll1.step(y, mask), mask)
-        supp = self.rp["supp"] > 0.5
-        vfr_app = np.where(supp, vfr, dt.type(0.0))
-        # AVR
-        vmag = np.hypot(vfd, vfq)
-        e = (c(self.rp["v_ref"]) - vmag) + c(self.rp["m_q"]) * (c(self.rp["q_ref"]) - m["q"])
-        u = self.avr.step(e, mask, lim_prev if p.avr_antiwindup else None)
-        e_mag = u + c(p.e_ref) + vfr_app
-        # quasi-stationary model and limiter
-        isd, isq = qsem_current(e_mag, delta, vfd, vfq, omega, dt.type(p.r_v), dt.type(p.l_v))
-        ild, ilq, limited = circular_limit(isd, isq, dt.type(p.i_max))
-        # inner current loop
-        lf = dt.type(p.l_f)
-        ffd, ffq = (vfd, vfq) if p.ff_filtered else (m["v_d"], m["v_q"])
-        v_ref_d = ffd - lf * m["i_q"] + self.pi_d.step(ild - m["i_d"], mask)
-        v_ref_q = ffq + lf * m["i_d"] + self.pi_q.step(ilq - m["i_q"], mask)
-        new_mem = dict(limited=limited.astype(dt), ild=ild, ilq=ilq, vmag=vmag, q=m["q"], vfr=vfr)
-        out = dict(
-            v_ref_d=v_ref_d,
-            v_ref_q=v_ref_q,
-            i_ref_d=ild,
-            i_ref_q=ilq,
-            delta=delta,
-            omega=omega,
-            e_mag=e_mag,
-            v_f=vfr_app,
-            p_e=p_e,
-        )
-        return new_mem, out, limited
-
     def step(self, meas) -> Outputs:
         """One sample for all active instances with finite measurements (``meas``: an object with
         the MEAS_FIELDS as attributes, or a (len(MEAS_FIELDS), n) matrix in that row order).
@@ -288,7 +145,7 @@ class DiscreteVisc:
         """
         m, finite = self._meas(meas)
         mask = self.active & finite
-        ok = self._advance(m, mask)
+        ok = self.engine.advance(m, mask)
         self.k += 1
         return self._outputs(ok)
 
@@ -300,7 +157,7 @@ class DiscreteVisc:
     def track(self, meas, index=None) -> None:
         """Warm standby: advance the states of instances ``index`` on ``meas`` without producing output."""
         m, finite = self._meas(meas)
-        self._advance(m, self._mask(index) & finite)
+        self.engine.advance(m, self._mask(index) & finite)
 
     # ------------------------------------------------------------------ initialisation
     def initialise(self, index, meas) -> None:
@@ -310,7 +167,7 @@ class DiscreteVisc:
         v_f = v, friction at rest, the AVR so that E is reproduced, the current PIs so that the
         first v_ref equals the present converter voltage v + (r_f + j l_f) i. Activates them.
         """
-        self._jit_stale = True  # states/parameters replaced outside the compiled step
+        self.engine.states_replaced()
         m, finite = self._meas(meas)
         mask = self._mask(index) & finite
         p, c = self.p, self._c
@@ -370,7 +227,7 @@ class DiscreteVisc:
         the AVR's last error is re-expressed with the new references so the proportional part does
         not jump. supp: the AVR integrator absorbs the change of the applied V_F.
         """
-        self._jit_stale = True  # states/parameters replaced outside the compiled step
+        self.engine.states_replaced()
         bad = set(changes) - set(RUNTIME_PARAMS)
         if bad:
             raise KeyError(f"not run-time parameters: {sorted(bad)}")
@@ -414,7 +271,7 @@ class DiscreteVisc:
 
     def restore(self, index: int, state: dict[str, float]) -> None:
         """Load a :meth:`snapshot` into instance ``index`` (e.g. a backup SDC taking over)."""
-        self._jit_stale = True  # states/parameters replaced outside the compiled step
+        self.engine.states_replaced()
         i = int(index)
         mask = self._mask(i)
         for k in self.rp:

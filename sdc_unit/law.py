@@ -46,7 +46,6 @@ Equations (per turbine):
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -103,8 +102,6 @@ class Measurements:
             np.broadcast_to(np.asarray(omega_meas, dtype=float), (n,)).copy(),
         )
 
-
-MEAS_FIELDS = ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
 
 
 @dataclass
@@ -270,5 +267,3 @@ def initial_state(meas, p: ViscParams):
     x[IX_FW2] = -dw
     return x
 
-
-OMEGA0_50HZ = 2.0 * math.pi * 50.0

@@ -14,6 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
+from sdvisc.vocabulary import F_NOMINAL_HZ, FILTER_R_F_PU, FILTER_X_F_PU
+
 
 @dataclass(frozen=True)
 class ViscParams:
@@ -101,9 +103,9 @@ class ViscParams:
     ff_filtered: bool = False
     k_pc: float = 0.13
     k_ic: float = 1.53
-    l_f: float = 0.08
-    r_f: float = 0.003
-    f_base: float = 50.0
+    l_f: float = FILTER_X_F_PU
+    r_f: float = FILTER_R_F_PU
+    f_base: float = F_NOMINAL_HZ
 
     @property
     def omega0(self) -> float:

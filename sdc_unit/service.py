@@ -54,11 +54,11 @@ from sdvisc import wire
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
+from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS, REQUEST_PARAM_WORDS
 from sdvisc.wire_batch import decode_batch, encode_batch, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
-MEAS_VALUE_KEYS = ("t_sim",) + ControllerBank.MEAS_KEYS
-CTRL_FLOATS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")
+MEAS_VALUE_KEYS = ("t_sim",) + MEAS_FIELDS
 STANDBY_MODES = ("latest", "track")
 
 
@@ -153,7 +153,7 @@ class SdcService:
         if not admission.turbine_ok(wid):
             self._reject("unknown_turbine")
             return
-        params = {k: msg[k] for k in ("mask", "h", "d", "m_q", "v_ref", "q_ref", "supp")}
+        params = {k: msg[k] for k in REQUEST_PARAM_WORDS}
         starting = cmd in (wire.Command.START_INSTANCE, wire.Command.TAKEOVER)
         inst = self._instance(wid, create=starting)
         status = wire.Status.OK
@@ -271,7 +271,7 @@ class SdcService:
                     inst.counts["meas_tracked"] += 1
                     if self.standby == "track":
                         self.bank.track(np.array([inst.slot]),
-                                        {k: rec[k][j:j + 1].astype(float) for k in ControllerBank.MEAS_KEYS})
+                                        {k: rec[k][j:j + 1].astype(float) for k in MEAS_FIELDS})
                 else:
                     self._reject("inactive", inst, "meas_inactive")
                 continue
@@ -300,7 +300,7 @@ class SdcService:
         rows = np.fromiter((newest[i.wid][0] for i in insts), dtype=np.intp, count=len(insts))
         rec = self.rx_records[rows]
         slots = np.fromiter((i.slot for i in insts), dtype=np.intp, count=len(insts))
-        out, valid = self.bank.step(slots, {k: rec[k].astype(float) for k in ControllerBank.MEAS_KEYS})
+        out, valid = self.bank.step(slots, {k: rec[k].astype(float) for k in MEAS_FIELDS})
         for inst in (i for i, ok in zip(insts, valid.tolist()) if not ok):
             inst.counts["ctrl_invalid"] += 1
         sent = [i for i, ok in zip(insts, valid.tolist()) if ok]
@@ -311,7 +311,7 @@ class SdcService:
             inst.ctrl_seq += 1
             seqs.append(inst.ctrl_seq)
         seqs = np.array(seqs)
-        cols = {k: out[k][valid] for k in CTRL_FLOATS}
+        cols = {k: out[k][valid] for k in CTRL_OUTPUTS}
         cols.update(wt=rec["wt"][valid], seq=seqs, meas_seq=rec["seq"][valid],
                     flags=out["limited"][valid].astype(int) | (2 if self.role == "backup" else 0))
         sec = int(now)

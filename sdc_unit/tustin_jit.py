@@ -6,18 +6,20 @@ some 250 of them -- too many for 50 turbines at Ts = 0.67 ms. Compiled, the same
 of about 150 flops per turbine.
 
 What: the recursions of :class:`sdc_unit.blocks.TustinFirstOrder`, :class:`~sdc_unit.blocks.TustinPI`
-and :class:`~sdc_unit.blocks.TustinSwing`, chained as in ``DiscreteVisc._pass``, operand for operand
-and in the same order, in the working precision (float64 or float32: the arrays and constants
-passed in are of that dtype, so the arithmetic stays in it). The limiter prediction is decided per
-turbine: a first pass assumes the last sample's limiter state; only a turbine that was or becomes
-limited is evaluated again with the predicted state (for the others the second pass would repeat
-the first exactly). Only turbines in ``mask`` are evaluated and committed.
+and :class:`~sdc_unit.swing.TustinSwing`, chained as in :meth:`sdc_unit.engines.BlockEngine._pass`,
+operand for operand and in the same order, with the law's own helpers
+(:mod:`sdc_unit.law_kernels`) compiled in, in the working precision (float64 or float32: the arrays
+and constants passed in are of that dtype, so the arithmetic stays in it). The limiter prediction
+is decided per turbine: a first pass assumes the last sample's limiter state; only a turbine that
+was or becomes limited is evaluated again with the predicted state (for the others the second pass
+would repeat the first exactly). Only turbines in ``mask`` are evaluated and committed.
 
 The block objects stay the owners of the states and coefficients (snapshot, restore, bumpless
-re-parameterisation work on them); ``DiscreteVisc`` stacks them into the matrices below once and
-makes the blocks' state entries rows (views) of them, so the compiled step updates them in place;
-whatever changes states or parameters outside the step marks the matrices for re-stacking. A unit test holds this kernel to the generic block-by-block pass (same trajectory to
-rounding, float64 and float32).
+re-parameterisation work on them); :class:`sdc_unit.engines.CompiledEngine` stacks them into the
+matrices below once and makes the blocks' state entries rows (views) of them, so the compiled step
+updates them in place; whatever changes states or parameters outside the step marks the matrices
+for re-stacking. A unit test holds this kernel to the block-by-block pass (float64 bit-identical,
+float32 to a few ulps).
 """
 
 from __future__ import annotations
@@ -28,6 +30,8 @@ import math
 
 import numpy as np
 from numba import njit
+
+from sdvisc.vocabulary import MEAS_FIELDS
 
 from . import law_kernels
 
@@ -50,7 +54,6 @@ CONST_NAMES = ("one", "zero", "two", "two_pi", "swing_scale_ts", "p_ref", "e_ref
                "lpf_d_dc", "lpf_q_dc")
 # flags F (int64)
 FLAG_NAMES = ("freeze_vf_when_limited", "omega_s_measured", "avr_antiwindup", "ff_filtered", "wrap")
-MEAS_ROWS = ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
 MEM_ROWS = ("limited", "ild", "ilq", "vmag", "q", "vfr")
 OUT_ROWS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "v_f", "p_e")
 REF_ROWS = ("v_ref", "m_q", "q_ref", "supp")
@@ -59,6 +62,9 @@ _LPF_D, _LPF_Q, _F_LPF, _F_W1, _F_W2, _F_LL1, _F_LL2 = range(7)
 _AVR, _PI_D, _PI_Q = range(3)
 _SW = 2 * len(FIRST_ORDER_BLOCKS) + 2 * len(PI_BLOCKS)  # first swing row in X
 _SWC = 3 * len(FIRST_ORDER_BLOCKS) + 3 * len(PI_BLOCKS)  # first swing row in C
+# rows of the measurement matrix M: the measurements in wire order (sdvisc.vocabulary.MEAS_FIELDS)
+_M_VD, _M_VQ, _M_ID, _M_IQ, _M_P, _M_Q, _M_OMEGA = (MEAS_FIELDS.index(f) for f in ("v_d", "v_q", "i_d", "i_q", "p", "q",
+                                                                              "omega_meas"))
 
 # Only the entry point, tustin_step, is cached on disk (see _entry); the functions it calls are
 # compiled into it.
@@ -95,7 +101,8 @@ def _pi(X, C, blk, i, e, hold, new):
 def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
     one, zero, two, two_pi, sc_ts = K[0], K[1], K[2], K[3], K[4]
     p_ref, e_ref, i_max, l_f, r_v, l_v = K[5], K[6], K[7], K[8], K[9], K[10]
-    v_d, v_q, i_d, i_q, p, q, omega_meas = M[0, i], M[1, i], M[2, i], M[3, i], M[4, i], M[5, i], M[7, i]
+    v_d, v_q, i_d, i_q, p, q = M[_M_VD, i], M[_M_VQ, i], M[_M_ID, i], M[_M_IQ, i], M[_M_P, i], M[_M_Q, i]
+    omega_meas = M[_M_OMEGA, i]
     hold_vf = F[0] != 0 and lim_prev
     # v_f low-pass (held at its output while limited, if so configured)
     if hold_vf:
@@ -148,11 +155,19 @@ def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
     return limited
 
 
-def _entry(law_kernels_key: int):
-    """The compiled step, cached on disk by numba. numba stamps that cache with this file only, and
-    the step also compiles :mod:`sdc_unit.law_kernels`: a hash of that file's source is a closure
-    constant of the step, and numba's cache key includes the closure, so an edit there recompiles
-    the step instead of loading a stale one."""
+def compiled_in_key() -> int:
+    """A hash of what the step compiles in from other files: the source of
+    :mod:`sdc_unit.law_kernels` and the measurement rows (numba freezes globals as constants)."""
+    text = inspect.getsource(law_kernels) + repr(MEAS_FIELDS)
+    return int(hashlib.sha256(text.encode()).hexdigest()[:15], 16)
+
+
+def _entry(compiled_in: int):
+    """The compiled step, cached on disk by numba. numba stamps that cache with this file only
+    (changes in other files are not seen), and the step also compiles code and constants from
+    elsewhere: their hash (:func:`compiled_in_key`) is a closure constant of the step, and numba's
+    cache key includes the closure, so a change there recompiles the step instead of loading a
+    stale one."""
 
     @njit(cache=True)
     def tustin_step(X, C, K, F, M, R, MEM, mask, LAST, LIMITED, OK):
@@ -160,7 +175,7 @@ def _entry(law_kernels_key: int):
         are finite, they are written to LAST[:, i] (float64) and LIMITED[i], and OK[i] is set; a
         turbine outside the mask is not touched (OK[i] = False)."""
         n = X.shape[1]
-        if law_kernels_key == 0:  # never true: the reference puts the key into the closure (see _entry)
+        if compiled_in == 0:  # never true: the reference puts the key into the closure (see _entry)
             n = 0
         new = np.empty(X.shape[0], dtype=X.dtype)
         mem = np.empty(MEM.shape[0], dtype=X.dtype)
@@ -188,13 +203,5 @@ def _entry(law_kernels_key: int):
     return tustin_step
 
 
-tustin_step = _entry(int(hashlib.sha256(inspect.getsource(law_kernels).encode()).hexdigest()[:15], 16))
+tustin_step = _entry(compiled_in_key())
 
-
-def precompile() -> None:
-    """Compile (or load from numba's on-disk cache) the step for float64 and float32, so that an
-    SDC started in a run does not spend seconds compiling (``./testbed setup`` calls this)."""
-    from sdc_unit.bank import ControllerBank
-
-    for dtype in ("float64", "float32"):
-        ControllerBank(2, 0.67e-3, dtype=dtype).warm_up(steps=2)

@@ -47,7 +47,8 @@ def test_bank_step_with_no_slots_returns_empty_outputs():
     import numpy as np
 
     from sdc_unit.bank import ControllerBank
+    from sdvisc.vocabulary import MEAS_FIELDS
 
     bank = ControllerBank(capacity=3, step_s=0.67e-3)
-    out, valid = bank.step(np.array([], dtype=int), {k: np.zeros(0) for k in ControllerBank.MEAS_KEYS})
+    out, valid = bank.step(np.array([], dtype=int), {k: np.zeros(0) for k in MEAS_FIELDS})
     assert valid.shape == (0,) and out["v_ref_d"].shape == (0,)

@@ -8,14 +8,12 @@ from scipy.signal import cont2discrete
 
 from sdc_unit.blocks import (
     CumulativePI,
-    CumulativeSwing,
     TustinFirstOrder,
     TustinPI,
-    TustinSwing,
     tustin_first_order_coeffs,
     tustin_pi_coeffs,
-    tustin_swing_coeffs,
 )
+from sdc_unit.swing import CumulativeSwing, TustinSwing, tustin_swing_coeffs
 
 RNG = np.random.default_rng(20240611)
 CASES = [
@@ -164,8 +162,6 @@ def test_cumulative_swing_equals_tustin_float64():
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
 def test_swing_integrator_pole_stays_at_one_in_working_precision(dtype):
     """a1 - a2 == 1 exactly, so a held delta never drifts (float32 once drifted away at 1 + 1.6e-5)."""
-    from sdc_unit.blocks import TustinSwing
-
     sw = TustinSwing(h=np.array([3.0, 5.0]), d=np.array([90.0, 20.0]), ts=0.25e-3, n=2, dtype=dtype)
     assert np.all(sw.a1.astype(np.float64) - sw.a2.astype(np.float64) == 1.0)
     sw.set_operating_point(None, np.array([0.3, -1.2]), np.zeros(2), np.zeros(2), np.zeros(2))

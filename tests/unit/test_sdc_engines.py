@@ -14,9 +14,10 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from sdc_unit import discrete, law_kernels, tustin_jit
+from sdc_unit import engines, law_kernels, tustin_jit
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
+from sdvisc.vocabulary import MEAS_FIELDS
 
 N = 6
 
@@ -62,7 +63,6 @@ def _trajectory(engine, dtype, steps=2200):
     return np.array(rows), np.array(limited), np.array([snap[key] for key in sorted(snap)])
 
 
-@pytest.mark.skipif(discrete.jit is None, reason="numba not installed")
 @pytest.mark.parametrize("dtype, tol", [(np.float64, 0.0), (np.float32, 1e-5)])
 def test_jit_engine_matches_the_blocks(dtype, tol):
     ref, lim_ref, snap_ref = _trajectory("blocks", dtype)
@@ -80,8 +80,23 @@ def test_engine_is_checked():
         DiscreteVisc(2, method="euler", engine="jit")
 
 
+def test_without_numba_auto_fails_loudly_and_blocks_still_run(monkeypatch):
+    """numba is a declared dependency: a Tustin controller never falls back to the slow path
+    silently (engine "auto" raises); the reference engine and the other methods do not need it."""
+    assert engines.jit is tustin_jit  # installed here: the compiled step is what "auto" uses
+    assert isinstance(DiscreteVisc(2).engine, engines.CompiledEngine)
+    monkeypatch.setattr(engines, "jit", None)
+    for engine in ("auto", "jit"):
+        with pytest.raises(RuntimeError, match="numba"):
+            DiscreteVisc(2, engine=engine)
+    assert isinstance(DiscreteVisc(2, engine="blocks").engine, engines.BlockEngine)
+    assert isinstance(DiscreteVisc(2, method="euler").engine, engines.BlockEngine)
+
+
 def test_compiled_step_cache_follows_the_law_kernels_source():
     """numba stamps its on-disk cache with tustin_jit.py only; the step's closure carries a hash of
-    law_kernels.py (which it compiles in), so an edit there cannot load a stale step."""
-    key = int(hashlib.sha256(inspect.getsource(law_kernels).encode()).hexdigest()[:15], 16)
+    law_kernels.py (which it compiles in) and of the measurement rows, so an edit there cannot load
+    a stale step."""
+    text = inspect.getsource(law_kernels) + repr(MEAS_FIELDS)
+    key = int(hashlib.sha256(text.encode()).hexdigest()[:15], 16)
     assert [c.cell_contents for c in tustin_jit.tustin_step.py_func.__closure__] == [key]
