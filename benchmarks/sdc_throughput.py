@@ -11,8 +11,8 @@ Two measurements, both on this machine, both of what ``sdc_unit.service`` does p
 * offline (``steps_per_s``): back-to-back ``ControllerBank.step`` on N slots with realistic
   measurements (N turbines at different operating points with a small ripple), and the same plus
   the service's wire work: the N MEAS datagrams decoded and checked together
-  (``sdvisc.wire_batch.decode_batch``), one vectorised bank step, the N CTRL replies packed together
-  (``encode_batch``), as ``sdc_unit.service`` does per round.
+  (``sdvisc.wire_batch.decode_batch``), then the service's own round code (``sdc_unit.round``: one
+  vectorised bank step, the N CTRL replies packed together).
 * real time (``max_instances_realtime``): a paced loop, one period per Ts; each period decodes N
   pre-encoded MEAS packets, takes one bank step and encodes N CTRL packets. Sample k is released at
   t0 + k Ts (a plant does not wait) and is late if its round finishes after t0 + (k + 1) Ts; a late
@@ -42,9 +42,10 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from sdc_unit.bank import ControllerBank  # noqa: E402
+from sdc_unit.round import pack_ctrl, step_round  # noqa: E402
 from sdvisc import wire  # noqa: E402
-from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS  # noqa: E402
-from sdvisc.wire_batch import decode_batch, encode_batch  # noqa: E402
+from sdvisc.vocabulary import MEAS_FIELDS  # noqa: E402
+from sdvisc.wire_batch import decode_batch  # noqa: E402
 
 TS = 0.67e-3
 LATE_LIMIT = 0.01
@@ -99,7 +100,8 @@ def make_bank(n: int, method: str = "tustin", dtype: str = "float64") -> tuple[C
 
 
 class ServiceRound:
-    """One sample round of ``sdc_unit.service`` without the socket: decode N MEAS, step, encode N CTRL."""
+    """One sample round of ``sdc_unit.service`` without the socket: decode N MEAS, then the service's own
+    round (``sdc_unit.round``: step the bank, pack N CTRL)."""
 
     def __init__(self, n: int, method: str = "tustin", dtype: str = "float64", header: bool = True):
         self.n = n
@@ -119,16 +121,10 @@ class ServiceRound:
     def full(self) -> int:
         """Returns the number of CTRL bytes produced (keeps the work observable)."""
         rec, _ = decode_batch(self.packets[self.k % N_SAMPLES], wire.MsgType.MEAS, header=self.header, stats=self.stats)
-        meas = {key: rec[key].astype(float) for key in MEAS_FIELDS}
-        out, valid = self.bank.step(self.slots, meas)
-        now = time.time()
-        sec = int(now)
+        valid, ctrl = step_round(self.bank, self.slots, rec)
         self.ctrl_seq += 1
-        cols = {key: out[key][valid] for key in CTRL_OUTPUTS}
-        cols.update(wt=rec["wt"][valid], seq=self.ctrl_seq, meas_seq=rec["seq"][valid],
-                    flags=out["limited"][valid].astype(int))
-        hdr = (self.ctrl_seq, sec, int((now - sec) * 1e9)) if self.header else None
-        nbytes = sum(len(b) for b in encode_batch(wire.MsgType.CTRL, cols, header=hdr))
+        seqs = np.full(int(valid.sum()), self.ctrl_seq)
+        nbytes = sum(len(b) for b in pack_ctrl(ctrl, seqs, time.time() if self.header else None))
         self.k += 1
         return nbytes
 

@@ -50,16 +50,17 @@ import numpy as np
 from sdc_unit import admission
 from sdc_unit.admission import SeqGate
 from sdc_unit.bank import ControllerBank
+from sdc_unit.round import pack_ctrl, step_round
 from sdvisc import wire
+from sdvisc.config import ConfigError, SdcConfig, load_config
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
-from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS, REQUEST_PARAM_WORDS
-from sdvisc.wire_batch import decode_batch, encode_batch, is_type, record_dtype
+from sdvisc.vocabulary import MEAS_FIELDS, REQUEST_PARAM_WORDS
+from sdvisc.wire_batch import decode_batch, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
 MEAS_VALUE_KEYS = ("t_sim",) + MEAS_FIELDS
-STANDBY_MODES = ("latest", "track")
 
 
 @dataclass
@@ -83,20 +84,17 @@ class Instance:
 class SdcService:
     """See the module docstring."""
 
-    def __init__(self, cfg: dict, sock: socket.socket | None = None) -> None:
+    def __init__(self, cfg: SdcConfig, sock: socket.socket | None = None) -> None:
         self.cfg = cfg
-        self.sdc_id = int(cfg.get("sdc_id", 1))
-        self.step_s = float(cfg["step_s"])
-        self.role = cfg.get("role", "primary")
-        self.standby = cfg.get("standby", "latest")
-        if self.standby not in STANDBY_MODES:
-            raise ValueError(f"standby must be one of {STANDBY_MODES}, got {self.standby!r}")
-        self.header = bool(cfg.get("header", True))
-        self.controller = (cfg["controller_vip"], wire.PORT_CONTROLLER)
-        self.sock = sock or self._open_socket(cfg.get("bind_ip", "0.0.0.0"))
+        self.sdc_id = cfg.sdc_id
+        self.step_s = cfg.step_s
+        self.role = cfg.role
+        self.standby = cfg.standby
+        self.header = cfg.header
+        self.controller = (cfg.controller_vip, wire.PORT_CONTROLLER)
+        self.sock = sock or self._open_socket(cfg.bind_ip)
         self.instances: dict[int, Instance] = {}
-        self.bank = ControllerBank(capacity=int(cfg.get("capacity", 64)) + 1, step_s=float(cfg["step_s"]),
-                                   method=cfg.get("method", "tustin"), dtype=cfg.get("dtype", "float64"))
+        self.bank = ControllerBank(capacity=cfg.capacity + 1, step_s=cfg.step_s, method=cfg.method, dtype=cfg.dtype)
         self.rx_stats = wire.DecodeStats()
         self.rx_records = np.zeros(0, dtype=record_dtype(wire.MsgType.MEAS, self.header))
         self.hb_seq = 0
@@ -295,39 +293,21 @@ class SdcService:
                 self._internal_error("round", exc)
 
     def _serve_round(self, newest: dict[int, tuple[int, tuple]], now: float) -> None:
-        """Step the turbines of one round together and answer each with one CTRL (one batch encode)."""
+        """Step the turbines of one round together (:func:`sdc_unit.round.step_round`) and answer
+        each with one CTRL."""
         insts = [self.instances[w] for w in newest]
         rows = np.fromiter((newest[i.wid][0] for i in insts), dtype=np.intp, count=len(insts))
-        rec = self.rx_records[rows]
         slots = np.fromiter((i.slot for i in insts), dtype=np.intp, count=len(insts))
-        out, valid = self.bank.step(slots, {k: rec[k].astype(float) for k in MEAS_FIELDS})
+        valid, ctrl = step_round(self.bank, slots, self.rx_records[rows], backup=self.role == "backup")
         for inst in (i for i, ok in zip(insts, valid.tolist()) if not ok):
             inst.counts["ctrl_invalid"] += 1
         sent = [i for i, ok in zip(insts, valid.tolist()) if ok]
         if not sent:
             return
-        seqs = []
         for inst in sent:
             inst.ctrl_seq += 1
-            seqs.append(inst.ctrl_seq)
-        seqs = np.array(seqs)
-        cols = {k: out[k][valid] for k in CTRL_OUTPUTS}
-        cols.update(wt=rec["wt"][valid], seq=seqs, meas_seq=rec["seq"][valid],
-                    flags=out["limited"][valid].astype(int) | (2 if self.role == "backup" else 0))
-        sec = int(now)
-        header = (seqs, sec, int((now - sec) * 1e9)) if self.header else None
-        try:
-            packets = encode_batch(wire.MsgType.CTRL, cols, header=header)
-        except wire.WireError:  # a value beyond float32 in some row: pack row by row, send the good ones
-            packets = []
-            for r in range(len(sent)):
-                row = {k: v[r:r + 1] for k, v in cols.items()}
-                row_header = (seqs[r:r + 1], header[1], header[2]) if header else None
-                try:
-                    packets += encode_batch(wire.MsgType.CTRL, row, header=row_header)
-                except wire.WireError:
-                    packets.append(None)
-        for inst, data in zip(sent, packets):
+        seqs = np.array([inst.ctrl_seq for inst in sent])
+        for inst, data in zip(sent, pack_ctrl(ctrl, seqs, now if self.header else None)):
             if data is None:
                 inst.counts["ctrl_invalid"] += 1
                 continue
@@ -389,13 +369,17 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(prog="python -m sdc_unit.service", description=__doc__)
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
-    cfg = json.loads(Path(args.config).read_text())
+    try:
+        cfg = load_config(SdcConfig, args.config)
+    except ConfigError as exc:
+        print(f"sdc: {exc}", file=sys.stderr)
+        return 2
     service = SdcService(cfg)
     service.bank.warm_up()  # also loads (or, the first time on a machine, compiles) the Tustin step
-    if cfg.get("realtime_priority", True):
+    if cfg.realtime_priority:
         raise_priority()
-    if cfg.get("out_dir"):  # the runner starts the plant only when every SDC is ready
-        write_json_atomic(Path(cfg["out_dir"]) / f"sdc{service.sdc_id}_ready.json", {"t_ready": time.time()})
+    out_dir = Path(cfg.out_dir)  # the runner starts the plant only when every SDC is ready
+    write_json_atomic(out_dir / f"sdc{service.sdc_id}_ready.json", {"t_ready": time.time()})
 
     def stop(*_):
         service.running = False
@@ -405,8 +389,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         service.run()
     finally:
-        out = Path(cfg["out_dir"]) / f"sdc{service.sdc_id}_stats.json"
-        out.write_text(json.dumps(service.summary(), indent=1))
+        (out_dir / f"sdc{service.sdc_id}_stats.json").write_text(json.dumps(service.summary(), indent=1))
     return 0
 
 

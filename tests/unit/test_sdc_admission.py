@@ -13,6 +13,7 @@ from hypothesis import strategies as st
 from sdc_unit.admission import CONFIRM_WINDOW, SeqGate, bad_params, meas_out_of_range
 from sdc_unit.service import SdcService
 from sdvisc import wire
+from sdvisc.config import SdcConfig
 
 TS = 0.00067
 CONTROLLER = ("127.0.0.2", wire.PORT_CONTROLLER)
@@ -33,11 +34,11 @@ def request(cmd: wire.Command, wt: int, req_id: int = 1, **params) -> bytes:
 
 
 @pytest.fixture
-def service():
+def service(tmp_path):
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", 0))
     sock.setblocking(False)
-    svc = SdcService({"step_s": TS, "controller_vip": "127.0.0.2", "capacity": 4}, sock=sock)
+    svc = SdcService(SdcConfig(step_s=TS, controller_vip="127.0.0.2", capacity=4, out_dir=str(tmp_path)), sock=sock)
     yield svc
     sock.close()
 

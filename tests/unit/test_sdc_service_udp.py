@@ -3,6 +3,7 @@ CTRL per usable MEAS, the sequence-number policy and the rejection of malformed 
 
 from __future__ import annotations
 
+import json
 import socket
 import struct
 import threading
@@ -12,7 +13,9 @@ import numpy as np
 import pytest
 
 from sdc_unit.service import SdcService
+from sdc_unit.service import main as service_main
 from sdvisc import wire
+from sdvisc.config import SdcConfig
 
 
 def _meas(wt, seq, vd=1.0, p=0.5):
@@ -53,8 +56,9 @@ def _collect(sock, until_quiet=0.3):
     return got
 
 
-def test_service_answers_every_usable_measurement_once(turbine_socket):
-    svc = SdcService({"step_s": 0.00067, "controller_vip": "127.0.0.1", "bind_ip": "127.0.0.1", "capacity": 8})
+def test_service_answers_every_usable_measurement_once(turbine_socket, tmp_path):
+    svc = SdcService(SdcConfig(step_s=0.00067, controller_vip="127.0.0.1", bind_ip="127.0.0.1", capacity=8,
+                               out_dir=str(tmp_path)))
     worker = threading.Thread(target=svc.run, kwargs={"until": time.time() + 3.0}, daemon=True)
     worker.start()
     try:
@@ -90,3 +94,12 @@ def test_service_answers_every_usable_measurement_once(turbine_socket):
     # the first answer continues the turbine's operating point: v_ref = v + (r_f + j x_f) i (bumpless start)
     first = next(m for m in ctrl if m["wt"] == 101)
     assert first["v_ref_d"] == pytest.approx(1.0 + 0.003 * 0.5 + 0.08 * 0.1, abs=2e-3)
+
+
+def test_a_bad_config_is_refused_before_anything_starts(tmp_path, capsys):
+    cfg = tmp_path / "sdc1_config.json"
+    cfg.write_text(json.dumps({"step_s": 0.00067, "out_dir": str(tmp_path), "standby": "lukewarm", "capcity": 8}))
+    assert service_main(["--config", str(cfg)]) == 2
+    err = capsys.readouterr().err
+    assert "standby" in err and "capcity" in err  # every problem named
+    assert [p.name for p in tmp_path.iterdir()] == ["sdc1_config.json"]  # no ready file: the runner waits
