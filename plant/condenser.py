@@ -36,7 +36,6 @@ class Condenser:
         self.p = params
         self.v_ref = 1.0
         self.z2 = complex(params.ra, params.xd2)
-        self._k = (None,)  # derived constants of rhs, recomputed if the parameter object is replaced
 
     def e_net(self, x) -> complex:
         return complex(x[EQ2].real, -x[ED2].real) * cmath.exp(1j * x[DELTA].real)
@@ -48,9 +47,6 @@ class Condenser:
     def rhs(self, x, v_term: complex, v_reg: float, e_net: complex | None = None):
         """(dx, I): x as an array or a list of 7 floats; ``e_net`` = ``self.e_net(x)`` if known."""
         p = self.p
-        if self._k[0] is not p:
-            self._k = (p, 2.0 * p.h, p.xd - p.xd1, p.xd1 - p.xd2, p.xq - p.xd2, 1.0 - p.avr_ta_tb)
-        _, h2, xdd1, xd12, xqd2, ta1 = self._k
         delta, w, eq1, eq2, ed2, xll, efd = x.real.tolist() if isinstance(x, np.ndarray) else x
         if e_net is None:
             e_net = complex(eq2, -ed2) * cmath.exp(1j * delta)
@@ -58,15 +54,15 @@ class Condenser:
         im = i_net * 1j * cmath.exp(-1j * delta)
         i_d, i_q = im.real, im.imag
         u = self.v_ref - v_reg - p.m_q * (v_term * i_net.conjugate()).imag
-        defd = (p.avr_k * (p.avr_ta_tb * u + ta1 * xll) - efd) / p.avr_te
+        defd = (p.avr_k * (p.avr_ta_tb * u + (1.0 - p.avr_ta_tb) * xll) - efd) / p.avr_te
         if (efd >= p.efd_max and defd > 0) or (efd <= p.efd_min and defd < 0):
             defd = 0.0
         return [
             OMEGA0 * (w - 1.0),
-            (-(ed2 * i_d + eq2 * i_q) - p.d * (w - 1.0)) / h2,
-            (efd - eq1 - xdd1 * i_d) / p.td01,
-            (eq1 - eq2 - xd12 * i_d) / p.td02,
-            (-ed2 + xqd2 * i_q) / p.tq02,
+            (-(ed2 * i_d + eq2 * i_q) - p.d * (w - 1.0)) / (2.0 * p.h),
+            (efd - eq1 - (p.xd - p.xd1) * i_d) / p.td01,
+            (eq1 - eq2 - (p.xd1 - p.xd2) * i_d) / p.td02,
+            (-ed2 + (p.xq - p.xd2) * i_q) / p.tq02,
             (u - xll) / p.avr_tb,
             defd,
         ], i_net

@@ -82,20 +82,34 @@ def solve_network(X, v_load, constants, z_planes, node_v):
     return e_grid, e_sc, i_load
 
 
+@njit(inline="always", **_OPTS)
+def _write_rows(rows, j, v, i, v_dc, omega_meas, p_me, v_conv):
+    rows[Row.v_d, j] = v.real
+    rows[Row.v_q, j] = v.imag
+    rows[Row.i_d, j] = i.real
+    rows[Row.i_q, j] = i.imag
+    rows[Row.p, j] = v.real * i.real + v.imag * i.imag
+    rows[Row.q, j] = v.imag * i.real - v.real * i.imag
+    rows[Row.v_dc, j] = v_dc
+    rows[Row.omega_meas, j] = omega_meas
+    rows[Row.p_me, j] = p_me
+    rows[Row.v_conv_re, j] = v_conv.real
+    rows[Row.v_conv_im, j] = v_conv.imag
+
+
 @njit(**_OPTS)
 def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, dX, rows, want):
     """Turbine derivatives into dX (and, ``want``, ``rows``); False if a limiter would act."""
     n = slow.shape[1]
-    kpc, kic, lf = constants[Const.kpc], constants[Const.kic], constants[Const.lf]
     w0_over_lf, w0_rf_over_lf = constants[Const.w0_over_lf], constants[Const.w0_rf_over_lf]
     w0_kp_pll, kp_pll, ki_pll = constants[Const.w0_kp_pll], constants[Const.kp_pll], constants[Const.ki_pll]
     m_max, v_dc_ref = constants[Const.m_max], constants[Const.v_dc_ref]
     kp_dc, ki_dc, two_over_tau_dc = constants[Const.kp_dc], constants[Const.ki_dc], constants[Const.two_over_tau_dc]
     p_me_min, v_chop = constants[Const.p_me_min], constants[Const.v_chop]
-    vd_ok = constants[Const.vd_ok]
+    vd_ok, kpc, kic = constants[Const.vd_ok], constants[Const.kpc], constants[Const.kic]
+    j_lf = complex(0.0, constants[Const.lf])
+    z_filter = complex(constants[Const.rf], constants[Const.lf])
     remote_i_ref = constants[Const.remote_i_ref] != 0.0
-    j_lf = complex(0.0, lf)
-    z_filter = complex(constants[Const.rf], lf)
     for j in range(n):
         v = node_v[j]
         i = X[IF * n + j]
@@ -139,17 +153,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, dX, rows, want
         dX[B * n + j] = slow[Slow.d_beta, j]
         dX[XB * n + j] = slow[Slow.d_xbeta, j]
         if want:
-            rows[Row.v_d, j] = v.real
-            rows[Row.v_q, j] = v.imag
-            rows[Row.i_d, j] = i.real
-            rows[Row.i_q, j] = i.imag
-            rows[Row.p, j] = v.real * i.real + v.imag * i.imag
-            rows[Row.q, j] = v.imag * i.real - v.real * i.imag
-            rows[Row.v_dc, j] = v_dc
-            rows[Row.omega_meas, j] = (kp_pll * e_v + x_pll) + 1.0
-            rows[Row.p_me, j] = p_me
-            rows[Row.v_conv_re, j] = v_conv.real
-            rows[Row.v_conv_im, j] = v_conv.imag
+            _write_rows(rows, j, v, i, v_dc, (kp_pll * e_v + x_pll) + 1.0, p_me, v_conv)
     return True
 
 

@@ -37,9 +37,9 @@ Equations (t in s, w0 = OMEGA0):
     pitch:   beta* = clip(kp_b (w_r - w_ref) + x_b, 0, beta_max), dx_b/dt = ki_b (w_r - w_ref),
              dbeta/dt = clip((beta* - beta)/tau_b, -rate, rate)
 
-Speed: ``rhs`` is written for short arrays (every numpy call costs ~0.3-0.8 us regardless of N):
-constants are stored as (N,) arrays of the operand's dtype, results are written into the caller's
-derivative array, and each limiter is skipped after one whole-array check shows it inactive.
+``rhs`` is the general numpy implementation (every limiter, batteries; the reference of the
+compiled kernels in plant/kernels.py for those branches): each limiter is skipped after one
+whole-array check shows it inactive, results are written into the caller's derivative array.
 The slow terms (P_aero, P_avail, P* - jQ*, 1/(2 H w_r), dbeta/dt, dx_b/dt) come from
 ``slow_terms`` and are held by the plant over ``Plant.slow_every`` steps (``self.slow``).
 """
@@ -94,15 +94,6 @@ class TurbineBank:
         self.trips = np.zeros(n, dtype=np.int64)
         self.slow = None  # slow terms held over one plant step (slow_terms), or None = every stage
         self._false = np.zeros(n, dtype=bool)
-        # constants as (N,) arrays of the operand's dtype: array-array ufuncs of one dtype are the
-        # cheapest numpy calls on short arrays (no scalar conversion, no casting)
-        cc = {"-j": -1j, "kpc": params.kpc, "kic": params.kic, "jlf": 1j * params.lf,
-              "zf": complex(params.rf, params.lf), "w0_lf": OMEGA0 / params.lf}
-        rc = {"w0kp": OMEGA0 * params.kp_pll, "w0": OMEGA0, "ki_pll": params.ki_pll, "1e-4": 1e-4,
-              "m_max": params.m_max, "vdc_ref": params.v_dc_ref, "kp_dc": params.kp_dc,
-              "2/tau_dc": 2.0 / params.tau_dc, "ki_dc": params.ki_dc}
-        self._c = {k: np.full(n, val, dtype=complex) for k, val in cc.items()}
-        self._c.update({k: np.full(n, val) for k, val in rc.items()})
 
     def hold_slow(self, S) -> None:
         """Evaluate the slow (mechanical) terms once per plant step (zero-order hold; rotor/pitch act
@@ -176,16 +167,43 @@ class TurbineBank:
         receives dS if given.  Limits (V_d floor, current limit, modulation limit, MSC power
         clip, chopper) are skipped by cheap whole-array checks when none can be active.
         """
-        p, c = self.p, self._c
+        p = self.p
         sl = self.slow if self.slow is not None else self.slow_terms(S)
         if any_ext is None:
             any_ext = bool(ext_mask.any())
-        Sr = S.real
+        vconv, d, e, ev, lim, vdc = self._grid_side(S, v, vconv_ext, ext_mask, any_ext, sl)
         i = S[IF]
-        th = Sr[TH]
+        pconv = (vconv * i.conj()).real
+        edc, pme, aw_dc, p_dc, pbatt = self._machine_side(S, vdc, pconv, sl)
+        dS = np.empty_like(S) if out is None else out
+        dSr = dS.real
+        dS.imag[TH:] = 0.0  # real rows
+        d -= complex(p.rf, p.lf) * i  # v_conv - v - (rf + j lf) i
+        np.multiply(d, OMEGA0 / p.lf, out=dS[IF])
+        dS[XI] = np.where(lim | ext_mask, 0.0, e) if any_ext or lim is not self._false else e
+        np.multiply(ev, OMEGA0 * p.kp_pll, out=dSr[TH])
+        dSr[TH] += OMEGA0 * S.real[XP]
+        np.multiply(ev, p.ki_pll, out=dSr[XP])
+        np.multiply(p_dc, 2.0 / p.tau_dc, out=dSr[W])
+        if aw_dc is None:
+            np.multiply(edc, p.ki_dc, out=dSr[XD])
+        else:
+            dSr[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
+        np.multiply(sl["paero"] - pme, sl["inv2hw"], out=dSr[WR])
+        dSr[B] = sl["db"]
+        dSr[XB] = sl["dxb"]
+        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": sl["paero"], "vlim": lim,
+               "ev": ev}
+        return dS, aux
+
+    def _grid_side(self, S, v, vconv_ext, ext_mask, any_ext, sl):
+        """Grid-side converter: (v_conv, v_conv - v, current-loop error e (PLL frame), PLL error e_v,
+        modulation-limited mask, v_dc)."""
+        p = self.p
+        i = S[IF]
         rotc = np.empty(self.n, dtype=complex)  # e^{-j theta}: cos and sin are cheaper than complex exp
-        np.cos(th, out=rotc.real)
-        np.sin(th, out=rotc.imag)
+        np.cos(S.real[TH], out=rotc.real)
+        np.sin(S.real[TH], out=rotc.imag)
         np.negative(rotc.imag, out=rotc.imag)
         vp = v * rotc
         vd = vp.real
@@ -199,65 +217,43 @@ class TurbineBank:
         ev = vp.imag / vmag
         e = iref - i * rotc
         # d = v_conv - v; grid-following: j lf i + (kpc e + kic xi) e^{j theta}
-        d = c["kpc"] * e
-        d += c["kic"] * S[XI]
+        d = p.kpc * e
+        d += p.kic * S[XI]
         d *= rotc.conj()
-        d += c["jlf"] * i
+        d += 1j * p.lf * i
         if any_ext:
             d = np.where(ext_mask, vconv_ext - v, d)
         vconv = v + d
-        vdc = np.sqrt(np.maximum(Sr[W], c["1e-4"]))
+        vdc = np.sqrt(np.maximum(S.real[W], 1e-4))
         vm = np.abs(vconv)
-        if _max(vm - c["m_max"] * vdc) > 0.0:
+        lim = self._false
+        if _max(vm - p.m_max * vdc) > 0.0:  # modulation limit |v_conv| <= m_max v_dc
             vmax = p.m_max * vdc
             lim = vm > vmax
             vconv = vconv * np.minimum(1.0, vmax / np.maximum(vm, 1e-9))
             d = vconv - v
-            any_lim = True
-        else:
-            lim = self._false
-            any_lim = False
-        pconv = (vconv * i.conj()).real
-        # machine side
-        edc = c["vdc_ref"] - vdc
-        pme_u = c["kp_dc"] * edc
-        pme_u += Sr[XD]
+        return vconv, d, e, ev, lim, vdc
+
+    def _machine_side(self, S, vdc, pconv, sl):
+        """DC-voltage PI, MSC power clip, battery and chopper: (v_dc error, P_me, anti-windup mask or
+        None, net power into the DC link, P_batt)."""
+        p = self.p
+        edc = p.v_dc_ref - vdc
+        pme_u = p.kp_dc * edc
+        pme_u += S.real[XD]
         if _max(pme_u) <= sl["pav_min"] and _min(pme_u) >= p.p_me_min:
             pme, aw_dc = pme_u, None
         else:
             pme = np.maximum(np.minimum(pme_u, sl["pav"]), p.p_me_min)
             aw_dc = (pme_u - pme) * edc > 0.0  # clipped and the error pushes further out
-        if out is None:
-            out = np.empty_like(S)
-        dS, dSr = out, out.real
-        dS.imag[TH:] = 0.0  # real rows
-        d -= c["zf"] * i
-        np.multiply(d, c["w0_lf"], out=dS[IF])
-        if any_ext or any_lim:
-            dS[XI] = np.where(lim | ext_mask, 0.0, e)
-        else:
-            dS[XI] = e
-        np.multiply(ev, c["w0kp"], out=dSr[TH])
-        dSr[TH] += c["w0"] * Sr[XP]
-        np.multiply(ev, c["ki_pll"], out=dSr[XP])
-        net = pme - pconv
+        p_dc = pme - pconv
         pbatt = 0.0
         if sl["any_batt"]:
             pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0)
-            net = net + pbatt
+            p_dc = p_dc + pbatt
         if _max(vdc) > p.v_chop:
-            net = net - np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
-        np.multiply(net, c["2/tau_dc"], out=dSr[W])
-        if aw_dc is None:
-            np.multiply(edc, c["ki_dc"], out=dSr[XD])
-        else:
-            dSr[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
-        np.multiply(sl["paero"] - pme, sl["inv2hw"], out=dSr[WR])
-        dSr[B] = sl["db"]
-        dSr[XB] = sl["dxb"]
-        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": sl["paero"], "vlim": lim,
-               "ev": ev}
-        return dS, aux
+            p_dc = p_dc - np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
+        return edc, pme, aw_dc, p_dc, pbatt
 
     # ------------------------------------------------------------------ initialisation
     def init_state(self, v, i):
