@@ -63,7 +63,8 @@ def _trajectory(engine, dtype, steps=2200):
     return np.array(rows), np.array(limited), np.array([snap[key] for key in sorted(snap)])
 
 
-@pytest.mark.parametrize("dtype, tol", [(np.float64, 0.0), (np.float32, 1e-5)])
+# float32: measured max 6.6e-7 (outputs) and 4.8e-7 (states), no limiter flag differing; bound ~5x that
+@pytest.mark.parametrize("dtype, tol", [(np.float64, 0.0), (np.float32, 3e-6)])
 def test_jit_engine_matches_the_blocks(dtype, tol):
     ref, lim_ref, snap_ref = _trajectory("blocks", dtype)
     got, lim, snap = _trajectory("jit", dtype)
