@@ -10,9 +10,7 @@ import pytest
 
 from plant.params import PlantParams
 from plant.sim import Plant
-
-law = pytest.importorskip("sdc_unit.law", reason="sdc_unit.law not available")
-from sdc_unit.params import ViscParams  # noqa: E402
+from sdc_unit.params import ViscParams
 
 VISC = np.arange(20, 24)  # the leftmost four turbines of cluster 3
 

@@ -5,7 +5,6 @@ segments between the events; the plant runs its own ETD2/Heun steps of 0.67 ms.
 """
 
 import numpy as np
-import pytest
 from scipy.integrate import solve_ivp
 
 from plant.params import PlantParams
@@ -90,7 +89,6 @@ def test_grid_following_matches_solve_ivp():
 
 
 def test_hd_visc_matches_solve_ivp():
-    pytest.importorskip("sdc_unit.law", reason="sdc_unit.law not available")
     # z_f = 0.002 p.u. (network base): V drops to ~0.89 p.u., the ViSC current rises to ~0.94 p.u.
     # without reaching the 1.5 p.u. limiter, whose switching (a discontinuous right-hand side)
     # stalls the implicit reference solver; the limited case is covered by test_plant_behaviour.
