@@ -1,7 +1,11 @@
 """DiscreteVisc: the SDC unit's discretised ViSC law, N instances vectorised.
 
 The equations are those of :mod:`sdc_unit.law`; each dynamic block is replaced by its discrete
-counterpart from :mod:`sdc_unit.blocks`. Per sample k (time k*Ts; there is no wall clock):
+counterpart from :mod:`sdc_unit.blocks` (PIs, first-order filters) and :mod:`sdc_unit.swing`.
+This module holds the instances' state: the blocks, memory, run-time parameters, start-up,
+re-parameterisation and snapshots; a sample is evaluated by an engine of :mod:`sdc_unit.engines`
+(the block-by-block reference or the compiled Tustin step). Per sample k (time k*Ts; there is no
+wall clock):
 
 1. v_f(k): low-pass of v (optionally held while the limiter is active, ``freeze_vf_when_limited``).
 2. swing: T(k) = p_ref - P_e(k), P_e = p measured, or the limited current's power when the limiter
@@ -23,12 +27,10 @@ from sdvisc.vocabulary import MEAS_FIELDS
 
 from . import law
 from .blocks import METHODS, make_first_order, make_pi
-from .engines import ENGINES, OUT_FIELDS, make_engine
+from .engines import OUT_FIELDS, make_engine
 from .law import Outputs
 from .params import RUNTIME_PARAMS, ViscParams
 from .swing import make_swing
-
-__all__ = ["DiscreteVisc", "ENGINES", "OUT_FIELDS"]
 
 
 class DiscreteVisc:
@@ -38,7 +40,7 @@ class DiscreteVisc:
     ``method`` in ("tustin", "trapezoid_cumulative", "euler"), ``dtype`` float64 or float32 (all
     state and arithmetic). In "trapezoid_cumulative" the PIs and the swing use the explicit running
     sums of eq. (13); the first-order filters use Tustin (the trapezoidal rule of a first-order lag
-    is its Tustin recursion). ``engine`` (see :data:`ENGINES`) chooses how a Tustin sample is
+    is its Tustin recursion). ``engine`` (see :data:`sdc_unit.engines.ENGINES`) chooses how a Tustin sample is
     evaluated; every engine gives the same trajectory. Instances start inactive; call
     :meth:`initialise` (or :meth:`restore`) first.
     """
