@@ -19,7 +19,6 @@ import json
 import select
 import signal
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -112,6 +111,7 @@ class PlantService:
 
     def __init__(self, cfg: PlantConfig) -> None:
         self.cfg = cfg
+        self.clock = cfg.clock()  # the run's one clock: pacing, AK timing, header stamps, delays
         self.step_s = cfg.step_s
         self.n_steps = int(round(cfg.duration_s / self.step_s))
         self.header = cfg.header
@@ -292,14 +292,14 @@ class PlantService:
         write_json_atomic(self.out_dir / "plant_status.json", status)
 
     def run(self) -> None:
-        t0 = float(self.cfg.t0_wall or time.time())
+        clock = self.clock
+        t0 = float(self.cfg.t0_wall or clock.now())
         status_every = max(1, int(0.1 / self.step_s))
         while self.k < self.n_steps and not self.stop_requested:
-            scheduled = t0 + self.k * self.step_s
-            now = time.time()
+            scheduled = t0 + self.k * self.step_s  # every time here is the run's clock (simulated seconds)
+            now = clock.now()
             if now < scheduled:
-                time.sleep(scheduled - now)
-                now = time.time()
+                now = clock.sleep_until(scheduled)
             lateness = now - scheduled
             if lateness > self.step_s:
                 self.late_steps += 1
@@ -316,7 +316,7 @@ class PlantService:
             self.recorder.maybe_record(self.k, self.model)
             if self.k % status_every == 0:
                 self._write_status(now)
-        self._write_status(time.time())
+        self._write_status(clock.now())
 
     def summary(self) -> dict:
         return {
@@ -364,7 +364,7 @@ def main(argv: list[str] | None = None) -> int:
     if cfg.t0_wall is None and cfg.start_margin_s is not None:
         # the runner waits for this: t = 0 is set only once the model is ready, so a slow start
         # (numba's cache loading, a first compile) does not show up as late steps
-        cfg.t0_wall = time.time() + cfg.start_margin_s
+        cfg.t0_wall = service.clock.now() + cfg.start_margin_s
         write_json_atomic(Path(cfg.out_dir) / "plant_ready.json", {"t0_wall": cfg.t0_wall})
     try:
         service.run()

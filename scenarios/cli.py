@@ -24,6 +24,13 @@ def _cmd_check(args) -> int:
     return status
 
 
+def _time_scale(text: str) -> float:
+    value = float(text)
+    if not 1.0 <= value <= 1000.0:
+        raise argparse.ArgumentTypeError("the time scale is 1 (real time) to 1000 wall seconds per simulated second")
+    return value
+
+
 def _cmd_run(args) -> int:
     from scenarios.loader import ScenarioError, load_scenario
     from scenarios.runner import RunError, run_scenario
@@ -37,7 +44,10 @@ def _cmd_run(args) -> int:
     out = Path(args.out or Path("results") / scenario.name)
     if args.pcap:
         scenario.capture.pcap = True
-    print(f"sdvisc: running {path} -> {out}/")
+    if args.time_scale is not None:
+        scenario.time_scale = args.time_scale
+    scaled = f" at time scale {scenario.time_scale:g} (virtual time)" if scenario.time_scale != 1 else ""
+    print(f"sdvisc: running {path} -> {out}/{scaled}")
     try:
         summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path))
     except RunError as exc:
@@ -88,6 +98,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--cli", action="store_true", help="open the Mininet CLI while the scenario runs")
     p.add_argument("--pcap", action="store_true", help="capture on the SDC host into the output directory")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--time-scale", type=_time_scale, default=None, metavar="K",
+                   help="wall seconds per simulated second (virtual time; overrides the scenario's time_scale)")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
     p.add_argument("files", nargs="+")

@@ -26,6 +26,7 @@ from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from scenarios.timeline import Timeline
 from sdvisc import cleanup
+from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
 from sdvisc.netns import set_link_up
 from topologies import topos
@@ -61,7 +62,11 @@ class Run:
         self.quiet = quiet
         self.net = None
         self.timeline_events: list[dict] = []
-        self.t0: float | None = None
+        self.t0: float | None = None  # the run clock's reading at t = 0 (simulated seconds)
+        self.clock = Clock(scenario.time_scale, time.time())  # the run's one clock, shared by every process
+        self.clock_settings = {"time_scale": self.clock.time_scale, "clock_epoch": self.clock.epoch}
+        self.wall_started: float | None = None
+        self.wall_ended: float | None = None
         self.desc: dict | None = None
         self.python = sys.executable
         self.finished = threading.Event()
@@ -102,7 +107,7 @@ class Run:
         topo = topos[sc.topology.name](**sc.topology.params())
         self.desc = describe(topo)
         port = _free_port()
-        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out)), self.out / "sdn_config.json")
+        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings), self.out / "sdn_config.json")
         app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
         if sc.sdn.redundancy:
             port2, peer_a, peer_b = _free_port(), _free_port(), _free_port()
@@ -185,10 +190,10 @@ class Run:
         hosts = self.desc["hosts"]
         out = str(self.out)
         for host, sdc_id, role in configs.sdcs(sc):
-            cfg = write_config(configs.sdc_config(sc, self.desc, out, sdc_id, role), self.out / f"{host}_config.json")
+            cfg = write_config(configs.sdc_config(sc, self.desc, out, sdc_id, role, self.clock_settings), self.out / f"{host}_config.json")
             self.processes.start(f"{host}.sdc", [self.python, "-m", "sdc_unit.service", "--config", str(cfg)],
                         host=self.net.get(host))
-        cfg = write_config(configs.owfcc_config(sc, out), self.out / "owfcc_config.json")
+        cfg = write_config(configs.owfcc_config(sc, out, self.clock_settings), self.out / "owfcc_config.json")
         self.processes.start("owfcc.owfcc", [self.python, "-m", "sdvisc.owfcc", "--config", str(cfg)],
                     host=self.net.get("owfcc"), stdin=subprocess.PIPE)
         if sc.capture.pcap:
@@ -200,10 +205,11 @@ class Run:
             self.processes.wait_ready(f"{host}.sdc", f"sdc{sdc_id}_ready.json", f"SDC on {host}")
         time.sleep(0.3)  # let the other services bind their sockets
         pids = {n: self.net.get(n).pid for n, h in hosts.items() if h["role"] == "turbine"}
-        cfg = write_config(configs.plant_config(sc, self.desc, out, pids), self.out / "plant_config.json")
+        cfg = write_config(configs.plant_config(sc, self.desc, out, pids, self.clock_settings), self.out / "plant_config.json")
         self.processes.start("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
         # the plant sets t = 0 (wall time) once its model is built and warmed up
         self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
+        self.wall_started = self.clock.to_wall(self.t0)
 
     def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
         """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
@@ -216,7 +222,7 @@ class Run:
         return inner[hop % len(inner)] if inner else None
 
     def set_link(self, a: str, b: str, up: bool) -> float:
-        """Set the link a–b up or down; returns the wall time just before its first end was changed.
+        """Set the link a–b up or down; returns the run clock's reading just before its first end was changed.
 
         The time is taken before the command (not after it returns, which is 1–3 ms later), so a
         recovery time measured from it can only be over-, never under-estimated.
@@ -239,7 +245,7 @@ class Run:
             except OSError as exc:
                 raise RunError(f"cannot set {intf.name} {state}: {exc}") from exc
             t_first = t_first or t
-        return t_first
+        return self.clock.from_wall(t_first)
 
     def play(self) -> None:
         """Play the timeline and show progress until the plant has run the scenario's duration."""
@@ -249,7 +255,7 @@ class Run:
         plant = self.procs["plant"]
         end = self.t0 + self.scenario.duration_s
         while plant.poll() is None:
-            now = time.time()
+            now = self.clock.now()
             if now >= end:
                 self.processes.stop_controllers()  # the scenario is over: no decisions on the plant's last packets
             self.processes.supervise(round(now - self.t0, 6))
@@ -259,10 +265,11 @@ class Run:
             if now - last_line >= (0.2 if tty else 1.0):
                 last_line = now
                 self._progress(tty)
-            wait = min(0.02, max(0.0, (self.t0 + pending[0].t - time.time()) if pending else 0.02))
-            time.sleep(wait)
+            wait = self.clock.wall_s(self.t0 + pending[0].t - self.clock.now()) if pending else 0.02
+            time.sleep(min(0.02, max(0.0, wait)))
         if plant.returncode != 0:
             raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
+        self.wall_ended = time.time()
         self._progress(tty, final=True)
         self.finished.set()
 

@@ -198,6 +198,8 @@ class Scenario(Strict):
     topology: TopologySpec = Field(default_factory=TopologySpec)
     duration_s: float = Field(gt=0, le=3600)
     step_s: float = Field(0.67e-3, gt=0, le=0.1, description="plant/SDC sampling period Ts")
+    time_scale: float = Field(1.0, ge=1.0, le=1000.0, description="wall seconds per simulated second (virtual "
+                              "time: every component k times slower, the network k times faster); 1 = real time")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)

@@ -112,6 +112,23 @@ def rejections(plant: dict, sdcs: dict, sdn: dict, owfcc: dict) -> dict:
     return out
 
 
+NOT_SCALED = ("Open vSwitch: packet forwarding, revalidation (not within 5 ms of the previous round), "
+              "port-down detection, inactivity probes, MAC ageing", "kernel: socket and qdisc queues, veths",
+              "OpenFlow message handling inside ovs-vswitchd")
+
+
+def time_section(run) -> dict:
+    """What the run's clock was: every time a user reads is in simulated seconds; at a time scale
+    k > 1 the network looked k times faster than this machine's (what is not scaled)."""
+    clock = getattr(run, "clock", None)
+    k = clock.time_scale if clock is not None else 1.0
+    started = getattr(run, "wall_started", None)
+    ended = getattr(run, "wall_ended", None)
+    return {"time_scale": k, "units": "simulated seconds",
+            "wall_duration_s": round(ended - started, 3) if started and ended else None,
+            "not_scaled": list(NOT_SCALED) if k != 1 else []}
+
+
 def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     out: Path = run.out
     sc = run.scenario
@@ -171,6 +188,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
                      "switches": len((run.desc or {}).get("switches", {})),
                      "hosts": len((run.desc or {}).get("hosts", {}))},
         "duration_s": sc.duration_s,
+        "time": time_section(run),
         "step_s": sc.step_s,
         "steps": plant.get("steps", 0),
         "late_steps": plant.get("late_steps", 0),

@@ -7,7 +7,6 @@ from __future__ import annotations
 import json
 import sys
 import threading
-import time
 
 from sdvisc import wire
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC
@@ -54,7 +53,7 @@ class Timeline:
             run.processes.send("plant", PLANT_COMMANDS[kind](event))
         elif kind == "fault":
             run.processes.send("plant", {"type": "fault", "on": True})
-            timer = threading.Timer(max(0.0, run.t0 + t + event.duration_s - time.time()),
+            timer = threading.Timer(max(0.0, run.clock.wall_s(run.t0 + t + event.duration_s - run.clock.now())),
                                     run.processes.send, args=("plant", {"type": "fault", "on": False}))
             timer.daemon = True
             timer.start()
@@ -67,7 +66,8 @@ class Timeline:
         hosts = run.desc["hosts"]
         me = hosts[event.host]
         name = f"{event.do}{number}_{event.host}"
-        cfg = {"count": event.count, "duration_s": event.duration_s, "out": str(run.out / f"{name}.json")}
+        # the fuzzer runs on the wall clock: its duration and pace are the scenario's, scaled
+        cfg = {"count": event.count, "duration_s": run.clock.wall_s(event.duration_s), "out": str(run.out / f"{name}.json")}
         if event.do == "spoof_ak":
             victim = hosts[event.victim]
             who = victim if event.impersonate else me
@@ -81,7 +81,7 @@ class Timeline:
                 return wire.PORT_OWFCC if target == "owfcc" else wire.PORT_SDC
 
             cfg.update(targets=[[CONTROLLER_VIP, wire.PORT_CONTROLLER] if t == "controller" else [hosts[t]["ip"], port(t)]
-                                for t in event.targets], seed=event.seed, step_s=run.scenario.step_s,
+                                for t in event.targets], seed=event.seed, step_s=run.clock.wall_s(run.scenario.step_s),
                        wid=wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101)
         path = run.out / f"{name}_config.json"
         path.write_text(json.dumps(cfg, indent=1))

@@ -86,6 +86,7 @@ class SdcService:
 
     def __init__(self, cfg: SdcConfig, sock: socket.socket | None = None) -> None:
         self.cfg = cfg
+        self.clock = cfg.clock()
         self.sdc_id = cfg.sdc_id
         self.step_s = cfg.step_s
         self.role = cfg.role
@@ -331,8 +332,8 @@ class SdcService:
         """Heartbeats from their own thread: they say the process is alive even while the main loop
         works through a burst (a dead process stops them at once; a stuck loop shows in the AKs)."""
         while self.running:
-            self._heartbeat(time.time())
-            time.sleep(HEARTBEAT_S)
+            self._heartbeat(self.clock.now())
+            self.clock.sleep(HEARTBEAT_S)
 
     def run(self, until: float | None = None) -> None:
         poller = select.epoll()
@@ -340,9 +341,9 @@ class SdcService:
         beats = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
         beats.start()
         try:
-            while self.running and (until is None or time.time() < until):
-                poller.poll(HEARTBEAT_S / 2)
-                now = time.time()
+            while self.running and (until is None or time.time() < until):  # until: wall time
+                poller.poll(self.clock.wall_s(HEARTBEAT_S / 2))
+                now = self.clock.now()  # the run's one clock: stamps, delays and events in simulated seconds
                 self._serve(self._drain(now), now)
         finally:
             self.running = False

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import os
 import socket
-import time
 from collections import Counter
 from pathlib import Path
 
@@ -43,7 +42,8 @@ class SdviscApp(app_manager.OSKenApp):
     def __init__(self, *args, **kwargs):
         super().__init__(*args, **kwargs)
         self.config = load_config(AppConfig, os.environ[CONFIG_ENV])
-        now = time.time()
+        self.clock = self.config.clock()  # the run's one clock: every decision is in simulated seconds
+        now = self.clock.now()
         self.logic = Controller(self.config, now=now)
         self.datapaths: dict[int, object] = {}
         self.of_counts: Counter = Counter()
@@ -99,7 +99,7 @@ class SdviscApp(app_manager.OSKenApp):
         state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
                  "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
                  "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
-                 "t_wall": time.time()}
+                 "t_wall": self.clock.now()}
         write_json_atomic(self.state_dir / f"{self.prefix}_state.json", state)
 
     def _peer(self, now: float) -> None:
@@ -143,13 +143,13 @@ class SdviscApp(app_manager.OSKenApp):
 
     def _timer_loop(self) -> None:
         while not STOPPING:
-            now = time.time()
+            now = self.clock.now()
             self._peer(now)
             self._send(self.logic.tick(now))
             if now - self._last_publish >= PUBLISH_S:
                 self._last_publish = now
                 self._publish()
-            hub.sleep(TICK_S)
+            hub.sleep(self.clock.wall_s(TICK_S))
 
     def stop(self):
         """Publish the final state and events before os-ken tears the app down."""
@@ -172,14 +172,14 @@ class SdviscApp(app_manager.OSKenApp):
         self.of_counts["rx_features"] += 1
         self.datapaths[dp.id] = dp
         self._request_role(dp)
-        self._send(self.logic.switch_up(dp.id, time.time()))
+        self._send(self.logic.switch_up(dp.id, self.clock.now()))
 
     @set_ev_cls(ofp_event.EventOFPPacketIn, MAIN_DISPATCHER)
     def _packet_in(self, ev):
         msg = ev.msg
         self.of_counts["rx_packet_in"] += 1
         self.of_counts["rx_total"] += 1
-        self._send(self.logic.packet_in(msg.datapath.id, msg.match.get("in_port", 0), msg.data, time.time()))
+        self._send(self.logic.packet_in(msg.datapath.id, msg.match.get("in_port", 0), msg.data, self.clock.now()))
 
     @set_ev_cls(ofp_event.EventOFPPortStatus, MAIN_DISPATCHER)
     def _port_status(self, ev):
@@ -191,7 +191,7 @@ class SdviscApp(app_manager.OSKenApp):
         up = not (desc.state & ofp.OFPPS_LINK_DOWN) and not (desc.config & ofp.OFPPC_PORT_DOWN)
         if msg.reason == ofp.OFPPR_DELETE:
             up = False
-        self._send(self.logic.port_status(msg.datapath.id, desc.port_no, up, time.time()))
+        self._send(self.logic.port_status(msg.datapath.id, desc.port_no, up, self.clock.now()))
 
     @set_ev_cls(ofp_event.EventOFPEchoRequest, [CONFIG_DISPATCHER, MAIN_DISPATCHER])
     def _echo(self, ev):

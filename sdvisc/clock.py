@@ -38,6 +38,10 @@ class Clock:
         """The wall time at which this clock reads ``t``."""
         return self.epoch + (t - self.epoch) * self.time_scale
 
+    def from_wall(self, wall: float) -> float:
+        """This clock's reading at wall time ``wall``."""
+        return self.epoch + (wall - self.epoch) / self.time_scale
+
     def sleep(self, dt: float) -> None:
         """Sleep ``dt`` simulated seconds."""
         if dt > 0:

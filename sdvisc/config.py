@@ -16,6 +16,7 @@ from typing import Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from sdvisc.clock import Clock
 from sdvisc.vocabulary import TURBINE_PATTERN
 
 CONTROLLER_VIP = "10.0.0.254"
@@ -32,7 +33,17 @@ class _Config(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
 
 
-class ProcessBase(_Config):
+class ClockSettings(_Config):
+    """The run's one clock (:mod:`sdvisc.clock`): every process of a run gets the same two numbers."""
+
+    time_scale: float = Field(1.0, ge=1.0, le=1000.0, description="wall seconds per simulated second (k)")
+    clock_epoch: float = Field(0.0, ge=0.0, description="wall time at which the virtual clock equals the wall clock")
+
+    def clock(self) -> Clock:
+        return Clock(self.time_scale, self.clock_epoch)
+
+
+class ProcessBase(ClockSettings):
     """What every network process of the testbed needs."""
 
     controller_vip: str = Field(CONTROLLER_VIP, description="the SDN app's virtual IP address")
@@ -84,7 +95,7 @@ class PlantConfig(ServiceBase):
     report_loss_after_s: float | None = Field(None, gt=0, description="send an AK at once when a loss lasts this long")
     check_rx_source: bool = Field(True, description="accept CTRL only from the SDC, REQUEST only from the SDN app")
     stdin_commands: bool = Field(True, description="read timeline commands (JSON lines) on stdin")
-    t0_wall: float | None = Field(None, description="wall time of t = 0 (None: set at start-up)")
+    t0_wall: float | None = Field(None, description="the run clock's reading at t = 0 (None: set at start-up)")
     start_margin_s: float | None = Field(None, ge=0, description="t = 0 this long after the model is ready")
 
 
@@ -125,7 +136,7 @@ class TopologyInfo(_Config):
     links: list[LinkInfo]
 
 
-class AppConfig(_Config):
+class AppConfig(ClockSettings):
     """``python -m sdn_app``: what the SDN application needs to know at start."""
 
     topology: TopologyInfo

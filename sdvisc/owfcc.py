@@ -25,7 +25,6 @@ import select
 import signal
 import socket
 import sys
-import time
 import traceback
 from pathlib import Path
 
@@ -62,6 +61,7 @@ class Owfcc:
         self.cfg = cfg
         self.vip = (cfg.controller_vip, wire.PORT_CONTROLLER)
         self.header = cfg.header
+        self.clock = cfg.clock()  # the run's one clock: retries and logged times in simulated seconds
         self.retry_s = cfg.retry_s
         self.max_tries = cfg.max_tries
         if sock is None:  # (tests hand in their own socket)
@@ -77,13 +77,13 @@ class Owfcc:
         self._internal_logged = False
 
     def _log(self, **event) -> None:
-        self.log.write(json.dumps({"t_wall": time.time(), **event}) + "\n")
+        self.log.write(json.dumps({"t_wall": self.clock.now(), **event}) + "\n")
 
     def _send(self, req_id: int) -> None:
         p = self.pending[req_id]
         p["tries"] += 1
-        p["t_sent"] = time.time()
-        hdr = wire.Header.now(req_id) if self.header else None
+        p["t_sent"] = self.clock.now()
+        hdr = wire.Header.at(req_id, self.clock.now()) if self.header else None
         self.sock.sendto(wire.encode(wire.MsgType.REQUEST, p["values"], header=hdr), self.vip)
 
     def submit(self, command: dict) -> None:
@@ -94,7 +94,7 @@ class Owfcc:
         except (KeyError, ValueError) as exc:
             self._log(type="owfcc_error", command=command, error=str(exc))
             return
-        self.pending[req_id] = {"values": values, "command": command, "tries": 0, "t_first": time.time()}
+        self.pending[req_id] = {"values": values, "command": command, "tries": 0, "t_first": self.clock.now()}
         self._log(type="owfcc_request", req_id=req_id, **{k: command[k] for k in ("cmd", "wt")},
                   params=command.get("params") or {})
         self._send(req_id)
@@ -109,7 +109,7 @@ class Owfcc:
                 self.counts["rx_socket_error"] = self.counts.get("rx_socket_error", 0) + 1
                 return
             try:  # one bad datagram never stops the OWFCC
-                self.receive(data, time.time())
+                self.receive(data, self.clock.now())
             except Exception as error:  # noqa: BLE001 - counted and logged once
                 self._reject("internal")
                 if not self._internal_logged:
@@ -161,7 +161,7 @@ class Owfcc:
                 "rx_wire": self.rx_stats.as_dict()}
 
     def _retry(self) -> None:
-        now = time.time()
+        now = self.clock.now()
         for req_id, p in list(self.pending.items()):
             if now - p["t_sent"] < self.retry_s:
                 continue
@@ -177,7 +177,7 @@ class Owfcc:
         poller.register(commands.fd, select.EPOLLIN)
         poller.register(self.sock.fileno(), select.EPOLLIN)
         while commands.open or self.pending:
-            for fd, _ in poller.poll(0.05):
+            for fd, _ in poller.poll(self.clock.wall_s(0.05)):
                 if fd == commands.fd:
                     for command in commands.read():
                         self.submit(command)

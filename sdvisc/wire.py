@@ -211,6 +211,12 @@ class Header:
         sec, nsec = divmod(time.time_ns(), 1_000_000_000)
         return cls(seq & UINT32_MAX, sec & UINT32_MAX, nsec)
 
+    @classmethod
+    def at(cls, seq: int, t: float) -> Header:
+        """Header stamped with time ``t`` (seconds, e.g. a reading of the run's clock)."""
+        sec = int(t)
+        return cls(seq & UINT32_MAX, sec & UINT32_MAX, min(int((t - sec) * 1e9), 999_999_999))
+
     @property
     def time(self) -> float:
         """Timestamp as float seconds."""
