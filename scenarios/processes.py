@@ -23,6 +23,19 @@ CONTROLLERS = ("controller", "controller2")
 READY_TIMEOUT_S = 120.0
 
 
+OVS_PIDFILE = "/var/run/openvswitch/ovs-vswitchd.pid"
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+
+
+def cpu_seconds_of(pid: int) -> float | None:
+    """User + system CPU seconds of a process (its threads included), or None if it is gone."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except (OSError, IndexError):
+        return None
+    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS  # utime, stime (fields 14, 15 of stat)
+
+
 class RunError(RuntimeError):
     """The run could not be set up or did not complete."""
 
@@ -141,6 +154,21 @@ class Processes:
         for name in CONTROLLERS:
             if self.alive(name):
                 self.procs[name].send_signal(signal.SIGTERM)
+
+    def cpu_seconds(self) -> dict[str, float]:
+        """CPU time (user + system, s) used so far by each running process, and by Open vSwitch's
+        ovs-vswitchd (all switches of the run), read from /proc."""
+        pids = {name: proc.pid for name, proc in self.procs.items() if proc.poll() is None}
+        try:
+            pids["ovs-vswitchd"] = int(Path(OVS_PIDFILE).read_text().split()[0])
+        except (OSError, ValueError, IndexError):
+            pass
+        out = {}
+        for name, pid in pids.items():
+            seconds = cpu_seconds_of(pid)
+            if seconds is not None:
+                out[name] = seconds
+        return out
 
     # ------------------------------------------------------------------ the end
     def stop_all(self) -> None:

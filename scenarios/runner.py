@@ -67,6 +67,8 @@ class Run:
         self.clock_settings = {"time_scale": self.clock.time_scale, "clock_epoch": self.clock.epoch}
         self.wall_started: float | None = None
         self.wall_ended: float | None = None
+        self.cpu_at_start: dict[str, float] = {}
+        self.cpu_used: dict[str, float] = {}
         self.desc: dict | None = None
         self.python = sys.executable
         self.finished = threading.Event()
@@ -210,6 +212,7 @@ class Run:
         # the plant sets t = 0 (wall time) once its model is built and warmed up
         self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
         self.wall_started = self.clock.to_wall(self.t0)
+        self.cpu_at_start: dict[str, float] = {}
 
     def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
         """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
@@ -256,6 +259,8 @@ class Run:
         end = self.t0 + self.scenario.duration_s
         while plant.poll() is None:
             now = self.clock.now()
+            if not self.cpu_at_start and now >= self.t0:
+                self.cpu_at_start = self.processes.cpu_seconds()  # from t = 0: start-up compiles left out
             if now >= end:
                 self.processes.stop_controllers()  # the scenario is over: no decisions on the plant's last packets
             self.processes.supervise(round(now - self.t0, 6))
@@ -270,6 +275,8 @@ class Run:
         if plant.returncode != 0:
             raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
         self.wall_ended = time.time()
+        self.cpu_used = {n: round(c - self.cpu_at_start[n], 4) for n, c in self.processes.cpu_seconds().items()
+                         if n in self.cpu_at_start}
         self._progress(tty, final=True)
         self.finished.set()
 

@@ -129,6 +129,15 @@ def time_section(run) -> dict:
             "not_scaled": list(NOT_SCALED) if k != 1 else []}
 
 
+def cpu_section(run, steps: int, plant_cpu_s: float | None = None) -> dict:
+    """CPU seconds each process used from t = 0 to the end (/proc), and per plant step in µs."""
+    used = dict(getattr(run, "cpu_used", {}) or {})
+    if plant_cpu_s is not None:
+        used["plant"] = plant_cpu_s  # measured by the plant itself (it has ended when the runner looks)
+    return {name: {"cpu_s": s, "us_per_step": round(s / steps * 1e6, 2) if steps else None}
+            for name, s in sorted(used.items())}
+
+
 def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     out: Path = run.out
     sc = run.scenario
@@ -189,6 +198,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
                      "hosts": len((run.desc or {}).get("hosts", {}))},
         "duration_s": sc.duration_s,
         "time": time_section(run),
+        "cpu": cpu_section(run, plant.get("steps", 0), plant.get("cpu_s")),
         "step_s": sc.step_s,
         "steps": plant.get("steps", 0),
         "late_steps": plant.get("late_steps", 0),

@@ -1,0 +1,84 @@
+"""CPU per ViSC sample: what each process of the testbed spends per plant step (Ts) with 1, 4 and
+16 ViSC turbines on the farm network — it sets how small the time scale can be.
+
+Prints one JSON object. Each case runs the farm topology (5 × 10, compact), N turbines switched
+to SDViSC at t = 0.5 s (spread over the clusters), for ``--duration`` simulated seconds at time
+scale ``--time-scale``; ``summary.json`` → ``cpu`` has each process's CPU seconds from t = 0 to
+the end (/proc utime + stime; start-up compiles left out): the plant, each SDC, the SDN app(s),
+the OWFCC and ovs-vswitchd (all switches). Per sample = per plant step. Needs root.
+
+    python benchmarks/cpu_budget.py [--turbines 1,4,16] [--duration 10] [--time-scale 4] [--plant full]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+GOALS_US = {"sdc_fixed_per_round": 50.0, "plant_step_remote": 30.0, "chain_outside_switches": 100.0}
+
+
+def scenario(n: int, duration: float, time_scale: float, plant: str) -> dict:
+    wts = [f"wt{1 + i % 5}_{1 + i // 5}" for i in range(n)]
+    return {"name": f"cpu_{n}visc", "topology": {"name": "farm", "clusters": 5, "turbines": 10, "layout": "compact"},
+            "duration_s": duration, "time_scale": time_scale, "plant": {"model": plant},
+            "sdc": {"method": "tustin", "backup": False},
+            "timeline": [{"t": round(0.5 + 0.01 * i, 3), "do": "visc_on", "wt": wt} for i, wt in enumerate(wts)]}
+
+
+def run(sc: dict, work: Path) -> dict:
+    path = work / f"{sc['name']}.yaml"
+    path.write_text(yaml.safe_dump(sc, sort_keys=False))
+    out = work / sc["name"]
+    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"],
+                         cwd=ROOT, capture_output=True, text=True, timeout=sc["duration_s"] * sc["time_scale"] + 600)
+    if res.returncode != 0:
+        raise RuntimeError(f"{sc['name']} failed:\n{res.stdout}\n{res.stderr}")
+    return json.loads((out / "summary.json").read_text())
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--turbines", default="1,4,16")
+    ap.add_argument("--duration", type=float, default=10.0)
+    ap.add_argument("--time-scale", type=float, default=4.0)
+    ap.add_argument("--plant", choices=["full", "minimal"], default="full")
+    ap.add_argument("--out", type=Path)
+    args = ap.parse_args()
+    if os.geteuid() != 0:
+        raise SystemExit("needs root")
+    work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-cpu-"))
+    work.mkdir(parents=True, exist_ok=True)
+    result: dict = {"benchmark": "cpu_budget", "plant": args.plant, "time_scale": args.time_scale,
+                    "duration_s": args.duration, "cpus": os.cpu_count(), "load_before": os.getloadavg(),
+                    "goals_us": GOALS_US, "cases": {}}
+    started = time.time()
+    for n in (int(x) for x in args.turbines.split(",")):
+        s = run(scenario(n, args.duration, args.time_scale, args.plant), work)
+        cpu = s.get("cpu", {})
+        per = {name: v["us_per_step"] for name, v in cpu.items()}
+        chain = sum(v for name, v in per.items() if name != "ovs-vswitchd")
+        result["cases"][f"{n}_visc"] = {
+            "us_per_sample": per, "chain_outside_switches_us": round(chain, 2),
+            "late_steps": s["late_steps"], "steps": s["steps"],
+            "ctrl_delivered": {wt: round(t["packets"]["ctrl_rx"] / max(1, t["packets"]["meas_tx"]), 4)
+                               for wt, t in s["turbines"].items()}}
+    result["wall_s"] = round(time.time() - started, 1)
+    result["load_after"] = os.getloadavg()
+    result["machine"] = {"platform": platform.platform(), "python": platform.python_version()}
+    print(json.dumps(result, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
