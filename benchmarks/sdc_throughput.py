@@ -111,6 +111,7 @@ class ServiceRound:
         self.packets = encoded_meas(n, self.samples, header)
         self.stats = wire.DecodeStats()
         self.ctrl_seq = 0
+        self.seq_zero = np.zeros(n, dtype=np.int64)
         self.k = 0
         self.bank.step(self.slots, self.samples[0])  # initialise every slot (bumpless start)
 
@@ -121,9 +122,9 @@ class ServiceRound:
     def full(self) -> int:
         """Returns the number of CTRL bytes produced (keeps the work observable)."""
         rec, _ = decode_batch(self.packets[self.k % N_SAMPLES], wire.MsgType.MEAS, header=self.header, stats=self.stats)
-        valid, ctrl = step_round(self.bank, self.slots, rec)
+        _, ctrl = step_round(self.bank, self.slots, rec)
         self.ctrl_seq += 1
-        seqs = np.full(int(valid.sum()), self.ctrl_seq)
+        seqs = self.seq_zero[:len(ctrl["wt"])] + self.ctrl_seq  # the service numbers per turbine
         nbytes = sum(len(b) for b in pack_ctrl(ctrl, seqs, time.time() if self.header else None))
         self.k += 1
         return nbytes

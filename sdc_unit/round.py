@@ -31,9 +31,11 @@ def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray,
     measurements and outputs); ``ctrl`` holds the CTRL words of the valid rows, in row order: the
     :data:`CTRL_OUTPUTS`, ``wt``, ``meas_seq`` and ``flags`` -- all but the CTRL's own ``seq``."""
     out, valid = bank.step(slots, {k: meas[k].astype(float) for k in MEAS_FIELDS})
+    flags = out["limited"][valid].astype(int)  # FLAG_LIMITED is bit 0
+    if backup:
+        flags |= FLAG_BACKUP
     ctrl = {k: out[k][valid] for k in CTRL_OUTPUTS}
-    ctrl.update(wt=meas["wt"][valid], meas_seq=meas["seq"][valid],
-                flags=out["limited"][valid].astype(int) * FLAG_LIMITED | (FLAG_BACKUP if backup else 0))
+    ctrl.update(wt=meas["wt"][valid], meas_seq=meas["seq"][valid], flags=flags)
     return valid, ctrl
 
 
