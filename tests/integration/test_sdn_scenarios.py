@@ -10,7 +10,7 @@ import time
 import pytest
 
 from plant.service import CTRL_GAP_S
-from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario
+from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario, time_scale_args
 
 pytestmark = pytest.mark.network
 SC = ROOT / "scenarios"
@@ -94,7 +94,7 @@ def test_cli_link_down_triggers_the_same_recovery(tmp_path):
         "  - {t: 2.0, do: link_down, a: s1, b: s3}\n", "").replace("duration_s: 4.0", "duration_s: 10.0"))
     out = tmp_path / "out"
     proc = subprocess.Popen([sys.executable, "-m", "scenarios.cli", "run", str(scenario), "--out", str(out), "--cli",
-                             "--quiet"], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                             "--quiet", *time_scale_args()], cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
                             stderr=subprocess.STDOUT, text=True)
     status = out / "plant_status.json"
 

@@ -31,7 +31,7 @@ def test_dr_hold_and_recovery_are_in_simulated_time(tmp_path):
     sc.update(name="link_failure_dr_k4", time_scale=4)
     path = tmp_path / "lf.yaml"
     path.write_text(yaml.safe_dump(sc))
-    s = run_scenario(path, tmp_path / "out")
+    s = run_scenario(path, tmp_path / "out", "--time-scale", "4")  # (the tests' default k would override the file's)
     (rec,) = s["recoveries"]
     assert rec["cause"] == "dr" and rec["recovery_ms"] is not None
     assert rec["t_detect"] - rec["t_loss"] >= 0.040 - 0.001  # the 40 ms hold, in simulated time
