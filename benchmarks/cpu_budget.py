@@ -15,14 +15,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-import yaml
+from scenario_runs import machine, run_dict  # benchmarks/scenario_runs.py
 
 ROOT = Path(__file__).resolve().parent.parent
 GOALS_US = {"sdc_fixed_per_round": 50.0, "plant_step_remote": 30.0, "chain_outside_switches": 100.0}
@@ -34,17 +32,6 @@ def scenario(n: int, duration: float, time_scale: float, plant: str) -> dict:
             "duration_s": duration, "time_scale": time_scale, "plant": {"model": plant},
             "sdc": {"method": "tustin", "backup": False},
             "timeline": [{"t": round(0.5 + 0.01 * i, 3), "do": "visc_on", "wt": wt} for i, wt in enumerate(wts)]}
-
-
-def run(sc: dict, work: Path) -> dict:
-    path = work / f"{sc['name']}.yaml"
-    path.write_text(yaml.safe_dump(sc, sort_keys=False))
-    out = work / sc["name"]
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=sc["duration_s"] * sc["time_scale"] + 600)
-    if res.returncode != 0:
-        raise RuntimeError(f"{sc['name']} failed:\n{res.stdout}\n{res.stderr}")
-    return json.loads((out / "summary.json").read_text())
 
 
 def main() -> int:
@@ -64,7 +51,7 @@ def main() -> int:
                     "goals_us": GOALS_US, "cases": {}}
     started = time.time()
     for n in (int(x) for x in args.turbines.split(",")):
-        s = run(scenario(n, args.duration, args.time_scale, args.plant), work)
+        s = run_dict(scenario(n, args.duration, args.time_scale, args.plant), work)
         cpu = s.get("cpu", {})
         per = {name: v["us_per_step"] for name, v in cpu.items()}
         chain = sum(v for name, v in per.items() if name != "ovs-vswitchd")
@@ -75,7 +62,7 @@ def main() -> int:
                                for wt, t in s["turbines"].items()}}
     result["wall_s"] = round(time.time() - started, 1)
     result["load_after"] = os.getloadavg()
-    result["machine"] = {"platform": platform.platform(), "python": platform.python_version()}
+    result["machine"] = machine()
     print(json.dumps(result, indent=1))
     return 0
 

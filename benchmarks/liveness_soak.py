@@ -19,16 +19,14 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
 from collections import Counter
 from pathlib import Path
 
-import yaml
+from scenario_runs import run_dict  # benchmarks/scenario_runs.py
 
-ROOT = Path(__file__).resolve().parent.parent
 FALSE_EVENTS = ("sdc_dead", "sdc_failover", "dr", "dr_not_acted", "failover_unavailable", "no_path")
 INFO_EVENTS = ("sdc_suspect", "sdc_alive", "service_restarted")
 
@@ -46,17 +44,6 @@ def case(name: str, duration_s: float) -> dict:
                 "sdc": {"method": "tustin", "backup": False}, "sdn": {"failover": True},
                 "timeline": [{"t": 0.5 + 0.1 * i, "do": "visc_on", "wt": wt} for i, wt in enumerate(wts)]}
     raise SystemExit(f"unknown case {name!r} (paper, farm4)")
-
-
-def run(scenario: dict, work: Path) -> dict:
-    path = work / f"{scenario['name']}.yaml"
-    path.write_text(yaml.safe_dump(scenario, sort_keys=False))
-    out = work / scenario["name"]
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=scenario["duration_s"] + 600)
-    if res.returncode != 0:
-        raise RuntimeError(f"{scenario['name']} failed:\n{res.stdout}\n{res.stderr}")
-    return json.loads((out / "summary.json").read_text())
 
 
 def count(summary: dict) -> dict:
@@ -89,7 +76,7 @@ def main() -> int:
         for i in range(args.runs):
             sc = case(name, args.duration)
             sc["name"] = f"{sc['name']}_{i}"
-            per_run.append(count(run(sc, work)))
+            per_run.append(count(run_dict(sc, work)))
         totals = {k: sum(r[k] for r in per_run) for k in FALSE_EVENTS + INFO_EVENTS}
         result["cases"][name] = {"totals": totals, "runs": per_run,
                                  "false_total": sum(totals[k] for k in FALSE_EVENTS)}

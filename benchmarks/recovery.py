@@ -18,16 +18,15 @@ import argparse
 import json
 import os
 import platform
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
+import liveness_soak  # benchmarks/liveness_soak.py, beside this file
 import numpy as np
-import yaml
+from scenario_runs import run_dict as run  # benchmarks/scenario_runs.py
 
-ROOT = Path(__file__).resolve().parent.parent
 GOALS = {"dr_p95_ms": 50.0, "ff_p95_ms": 5.0, "failover_p95_ms": 60.0}
 TOPOLOGIES = {
     "paper": ({"name": "paper", "clusters": 2, "turbines": 2}, ["wt1_1", "wt2_2"]),
@@ -59,17 +58,6 @@ def failover_scenario(name: str) -> dict:
             "sdn": {"failover": True},
             "timeline": [{"t": 0.5, "do": "visc_on", "wt": "wt1_1"}, {"t": 1.5, "do": "kill", "host": "sdc1",
                                                                         "process": "sdc"}]}
-
-
-def run(scenario: dict, work: Path) -> dict:
-    path = work / f"{scenario['name']}.yaml"
-    path.write_text(yaml.safe_dump(scenario, sort_keys=False))
-    out = work / scenario["name"]
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"],
-                         cwd=ROOT, capture_output=True, text=True, timeout=600)
-    if res.returncode != 0:
-        raise RuntimeError(f"{scenario['name']} failed:\n{res.stdout}\n{res.stderr}")
-    return json.loads((out / "summary.json").read_text())
 
 
 def targeted_interruptions(summary: dict) -> list[float]:
@@ -151,8 +139,6 @@ def main(argv: list[str] | None = None) -> int:
     result["failover_p95_ms"] = result["failover_ms"].get("p95")
     result["detect_ms"] = {k: percentiles(v) for k, v in detect.items()}  # fault → the app's decision
     if args.soak_runs:
-        import liveness_soak  # benchmarks/liveness_soak.py, beside this file
-
         soak = {}
         for case in ("paper", "farm4"):
             runs = [liveness_soak.count(run(dict(liveness_soak.case(case, args.soak_duration),

@@ -15,26 +15,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+from scenario_runs import ROOT, machine, run_file  # benchmarks/scenario_runs.py
+
 LATE_MAX = 0.01
 ROUND_TRIP_MAX_SAMPLES = 1.0
-
-
-def run(name: str, k: float, work: Path) -> dict:
-    out = work / f"{name}_k{k:g}"
-    res = subprocess.run([sys.executable, "-m", "scenarios.cli", "run", str(ROOT / "scenarios" / f"{name}.yaml"),
-                          "--out", str(out), "--quiet", "--time-scale", f"{k:g}"], cwd=ROOT, capture_output=True,
-                         text=True, timeout=3600)
-    if res.returncode != 0:
-        raise RuntimeError(f"{name} at k={k:g} failed:\n{res.stdout}\n{res.stderr}")
-    return json.loads((out / "summary.json").read_text())
 
 
 def judge(s: dict) -> dict:
@@ -72,7 +61,8 @@ def main() -> int:
     for name in args.scenarios.split(","):
         tried, found, k = {}, None, args.start
         while k <= args.max:
-            verdict = judge(run(name, k, work))
+            verdict = judge(run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_k{k:g}",
+                                     "--time-scale", f"{k:g}"))
             tried[f"{k:g}"] = verdict
             if verdict["holds"]:
                 found = k
@@ -81,7 +71,7 @@ def main() -> int:
         result["scenarios"][name] = {"min_time_scale": found, "tried": tried}
     result["wall_s"] = round(time.time() - started, 1)
     result["load_after"] = os.getloadavg()
-    result["machine"] = {"platform": platform.platform(), "python": platform.python_version()}
+    result["machine"] = machine()
     print(json.dumps(result, indent=1))
     return 0
 
