@@ -1,4 +1,6 @@
-"""The compiled step (plant/jitstep.py) against the numpy code it replaces (Plant(jit=False)).
+"""The compiled path (plant/kernels.py) against the general numpy path (Plant(jit=False)), its
+reference for the branches the compiled path hands over (limiters, etc.; plant/equations.py).
+Against references neither was derived from (solve_ivp, power balance): test_plant_compiled.py.
 
 Both paths run the same 1.5 s with a load step, remote mode (held references, then the lost-
 reference fall-back), an SLG fault on and off, an SCR change, hd_visc and back, a grid-EMF and an
