@@ -90,14 +90,14 @@ class CompiledPath:
     # ---------------------------------------------------------------- values
     def hold_slow(self, X, turbines) -> SlowTerms:
         """Evaluate the slow mechanical terms of state X (``TurbineBank.slow_terms``, compiled)."""
-        tb = turbines
-        pack(slow_constants(tb.p), self.constants)
+        pack(slow_constants(turbines.p), self.constants)
         rows = np.empty((len(Slow), self.n))
-        vd_ok, p_avail_min = kernels.slow_terms(X, self.constants, tb.v_wind, tb.mppt, tb.p_cmd, tb.q_cmd, rows)
+        vd_ok, p_avail_min = kernels.slow_terms(X, self.constants, turbines.v_wind, turbines.mppt, turbines.p_cmd,
+                                                turbines.q_cmd, rows)
         self.constants[Const.vd_ok] = vd_ok
         held = SlowTerms(paero=rows[Slow.p_aero], pav=rows[Slow.p_avail], pav_min=p_avail_min, vd_ok=vd_ok,
                          inv2hw=rows[Slow.inv_2hw], db=rows[Slow.d_beta], dxb=rows[Slow.d_xbeta],
-                         any_batt=bool(tb.battery.any()))
+                         any_batt=bool(turbines.battery.any()))
         held.rows = rows
         self.held = held
         return held
@@ -123,10 +123,9 @@ class CompiledPath:
     # ---------------------------------------------------------------- evaluations
     def evaluate(self, X, turbines, v_load: complex):
         """(dX, aux) of state X, or None (a limiter would act: the numpy path evaluates it)."""
-        tb = turbines
         out, rows = self._buffers()
-        if not kernels.evaluate(X, v_load, self.constants, self.held.rows, tb.mode, tb.v_hold, tb.i_hold, self.z_planes,
-                                out, rows):
+        if not kernels.evaluate(X, v_load, self.constants, self.held.rows, turbines.mode, turbines.v_hold,
+                                turbines.i_hold, self.z_planes, out, rows):
             return None
         return out[self.size:2 * self.size], CompiledAux(out, rows, self.n, self.size)
 
@@ -140,23 +139,21 @@ class CompiledPath:
     def evaluate_given_network(self, X, node_v, sources, turbines, v_ext, want_aux: bool):
         """(dX, aux or None) of state X with its network solved and the converter voltages
         ``v_ext`` (held remote references and the law's); None if a limiter would act."""
-        tb = turbines
         out, rows = self._buffers()
         o = 2 * self.size
         dX, scalars = out[self.size:o], out[o + self.n + 2:]
         out[o:o + self.n + 2] = node_v
-        if not kernels.rhs_given_network(X, node_v, sources, self.constants, self.held.rows, tb.mode, v_ext,
-                                         tb.i_hold, dX, rows, scalars, want_aux):
+        if not kernels.rhs_given_network(X, node_v, sources, self.constants, self.held.rows, turbines.mode, v_ext,
+                                         turbines.i_hold, dX, rows, scalars, want_aux):
             return None
         return dX, (CompiledAux(out, rows, self.n, self.size) if want_aux else None)
 
     def step(self, X, k1, coefficients, turbines, v_load: complex, evaluate_next: bool):
         """One ETD2 step of X (first stage k1, ``Etd2Coefficients``): (X+, (dX+, aux+) or None),
         or None when its second stage needs the numpy path (nothing done)."""
-        tb = turbines
         out, rows = np.empty(self._out_size, dtype=complex), np.empty(self._rows_shape)
-        code = kernels.step(X, k1, coefficients.rows, v_load, self.constants, self.held.rows, tb.mode, tb.v_hold,
-                            tb.i_hold, self.z_planes, out, rows, evaluate_next)
+        code = kernels.step(X, k1, coefficients.rows, v_load, self.constants, self.held.rows, turbines.mode,
+                            turbines.v_hold, turbines.i_hold, self.z_planes, out, rows, evaluate_next)
         if code == 1:
             return None
         x_next = out[:self.size]

@@ -272,7 +272,8 @@ def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
     """The slow mechanical terms (TurbineBank.slow_terms) into ``slow`` (rows ``Slow``);
     returns (vd_ok, min P_avail)."""
     n = v_wind.shape[0]
-    v_wind_rated, lambda_opt, cp_opt = constants[Const.v_wind_rated], constants[Const.lambda_opt], constants[Const.cp_opt]
+    v_wind_rated, lambda_opt = constants[Const.v_wind_rated], constants[Const.lambda_opt]
+    cp_opt = constants[Const.cp_opt]
     p_me_max, p_headroom = constants[Const.p_me_max], constants[Const.p_headroom]
     omega_r_ref = constants[Const.omega_r_ref]
     kp_beta, ki_beta, beta_max = constants[Const.kp_beta], constants[Const.ki_beta], constants[Const.beta_max]
