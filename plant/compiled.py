@@ -80,6 +80,7 @@ class CompiledPath:
         self.n, self.size = layout.n, layout.size
         self.constants = np.zeros(len(Const))
         pack(turbine_gains(turbine_params), self.constants)
+        pack(slow_constants(turbine_params), self.constants)
         self.held = None  # the SlowTerms of the last hold_slow
         self._out_size = 2 * self.size + self.n + 2 + kernels.N_SCALARS  # kernels.split
         self._rows_shape = (len(Row), self.n)
@@ -90,7 +91,6 @@ class CompiledPath:
     # ---------------------------------------------------------------- values
     def hold_slow(self, X, turbines) -> SlowTerms:
         """Evaluate the slow mechanical terms of state X (``TurbineBank.slow_terms``, compiled)."""
-        pack(slow_constants(turbines.p), self.constants)
         rows = np.empty((len(Slow), self.n))
         vd_ok, p_avail_min = kernels.slow_terms(X, self.constants, turbines.v_wind, turbines.mppt, turbines.p_cmd,
                                                 turbines.q_cmd, rows)

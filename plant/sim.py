@@ -104,18 +104,21 @@ class Plant(Commands, RightHandSide):
         if self._cache is None:
             # slow terms: re-evaluated every ``slow_every`` steps and after any command/event
             if not self._slow_keep or self.tb.slow is None or self.k >= self._slow_next:
-                self._hold_slow()
+                self._hold_slow(after_command=not self._slow_keep)
                 self._slow_next = self.k + self.slow_every
             self._slow_keep = False
             self._cache = self._evaluate(self.X, self.xl, want_aux=True)
         return self._cache
 
-    def _hold_slow(self) -> None:
+    def _hold_slow(self, after_command: bool) -> None:
+        """Evaluate and hold the slow terms; after a command (or at the start) also hand the
+        compiled path the operating values (grid, condenser, load, AVR) the command may have changed."""
         if self._compiled is None:
             self.tb.hold_slow(self.layout.turbines(self.X))
             return
         self.tb.slow = self._compiled.hold_slow(self.X, self.tb)
-        self._compiled.set_values(operating_values(self.params, self.net, self.sc, self.load_s, self.pm0))
+        if after_command:
+            self._compiled.set_values(operating_values(self.params, self.net, self.sc, self.load_s, self.pm0))
 
     def step(self, remote_inputs=None) -> None:
         """Advance one step of ``step_s``. ``remote_inputs``: (index_array, v_ref_d, v_ref_q) or None."""
@@ -175,9 +178,10 @@ class Plant(Commands, RightHandSide):
         if evaluation is not None:
             self._cache = (evaluation[0], None, evaluation[1])
             self._slow_keep = False
-        else:
-            self._cache = None
-            self._slow_keep = True  # only the step itself may keep the held slow terms
+            self._v_pcc_last = evaluation[1]["v_pcc"]
+            return
+        self._cache = None
+        self._slow_keep = True  # only the step itself may keep the held slow terms
         self._v_pcc_last = self._eval_cached()[2]["v_pcc"]
 
     def _coefficients(self, h: float, law_size: int | None = None) -> Etd2Coefficients:

@@ -5,9 +5,8 @@ Each ``IntEnum`` below is generated from one tuple of names. The kernels index w
 name (:func:`pack` with a dict), so a position is never written down twice.
 
 ``Const``: one float vector of every constant the kernels use -- the turbine gains and their
-derived products (fixed when a plant is built), the constants of the slow mechanical terms, and
-the operating values (grid source, condenser, load, AVR) re-packed with every slow-term evaluation,
-i.e. after every command. ``Slow``: rows of the held slow terms (N columns). ``Row``: rows of the
+derived products and the constants of the slow mechanical terms (read when a plant is built), and
+the operating values (grid source, condenser, load, AVR) re-packed after every command. ``Slow``: rows of the held slow terms (N columns). ``Row``: rows of the
 real per-turbine results of an evaluation, the measurements first in wire order
 (sdvisc.vocabulary.MEAS_FIELDS). ``Scalar``: the complex scalars of an evaluation.
 """
