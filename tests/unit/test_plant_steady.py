@@ -5,8 +5,7 @@ import pytest
 
 from plant.params import PlantParams
 from plant.sim import Plant
-
-MEAS_KEYS = ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
+from sdvisc.vocabulary import MEAS_FIELDS
 
 
 @pytest.fixture(scope="module")
@@ -45,8 +44,8 @@ def test_state_is_stationary(settled):
 
 def test_measurement_dict(settled):
     m = settled.measurements()
-    assert set(MEAS_KEYS) <= set(m)
-    for k in MEAS_KEYS:
+    assert set(MEAS_FIELDS) <= set(m)
+    for k in MEAS_FIELDS:
         assert m[k].shape == (50,) and np.all(np.isfinite(m[k]))
     s = (m["v_d"] + 1j * m["v_q"]) * np.conj(m["i_d"] + 1j * m["i_q"])
     assert np.allclose(s.real, m["p"]) and np.allclose(s.imag, m["q"])
