@@ -28,6 +28,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numpy as np
+
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS, VISC_PARAMS
 
@@ -57,10 +59,16 @@ def t_sim_tolerance(t_sim: float, step_s: float) -> float:
 
 def meas_out_of_range(values: dict) -> bool:
     """True if a decoded MEAS holds a value no converter can produce."""
-    t_sim = values["t_sim"]
-    if not 0.0 <= t_sim <= T_SIM_MAX_S:
-        return True
-    return any(abs(values[k]) > MEAS_ABS_MAX_PU for k in MEAS_FIELDS)
+    return bool(out_of_range_rows({k: np.asarray(values[k]) for k in ("t_sim", *MEAS_FIELDS)}))
+
+
+def out_of_range_rows(records) -> np.ndarray:
+    """:func:`meas_out_of_range` for every row of a decoded MEAS batch at once (boolean mask)."""
+    t_sim = records["t_sim"]
+    bad = (t_sim < 0.0) | (t_sim > T_SIM_MAX_S)
+    for k in MEAS_FIELDS:
+        bad |= np.abs(records[k]) > MEAS_ABS_MAX_PU
+    return bad
 
 
 def bad_params(values: dict) -> list[str]:

@@ -60,7 +60,6 @@ from sdvisc.vocabulary import MEAS_FIELDS, REQUEST_PARAM_WORDS
 from sdvisc.wire_batch import decode_batch, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
-MEAS_VALUE_KEYS = ("t_sim",) + MEAS_FIELDS
 
 
 @dataclass
@@ -139,8 +138,7 @@ class SdcService:
     def _header(self, seq: int, now: float) -> wire.Header | None:
         if not self.header:
             return None
-        sec = int(now)
-        return wire.Header(seq, sec, int((now - sec) * 1e9))
+        return wire.Header.at(seq, now)
 
     # ------------------------------------------------------------------ commands
     def _on_request(self, msg: wire.Message, src_ip: str, now: float) -> None:
@@ -248,7 +246,8 @@ class SdcService:
         rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
         self.rx_records = rec
         delays = ((now - (rec["hdr_sec"] + rec["hdr_nsec"] * 1e-9)) * 1e3).tolist() if self.header else None
-        columns = {k: rec[k].tolist() for k in ("wt", "seq") + MEAS_VALUE_KEYS}
+        columns = {k: rec[k].tolist() for k in ("wt", "seq", "t_sim")}
+        out_of_range = admission.out_of_range_rows(rec).tolist()  # one vectorised check per batch
         for j, (wid, seq, t_sim) in enumerate(zip(columns["wt"], columns["seq"], columns["t_sim"])):
             if not admission.turbine_ok(wid):
                 self._reject("unknown_turbine")
@@ -257,7 +256,7 @@ class SdcService:
             if inst is None:
                 self._reject("unserved")
                 continue
-            if admission.meas_out_of_range({k: columns[k][j] for k in MEAS_VALUE_KEYS}):
+            if out_of_range[j]:
                 self._reject("out_of_range", inst, "meas_rejected")
                 continue
             previous = inst.gate.last_seq

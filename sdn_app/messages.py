@@ -72,8 +72,7 @@ class Messenger:
         if not self.state.config.header:
             return None
         self.request_seq += 1
-        sec = int(now)
-        return wire.Header(self.request_seq, sec, int((now - sec) * 1e9))
+        return wire.Header.at(self.request_seq, now)
 
     def reply(self, now: float, req_id: int, status: wire.Status, wid: int, cmd: int, detail: int = 0) -> list:
         """A REPLY to the OWFCC."""
