@@ -24,8 +24,13 @@ def _cmd_check(args) -> int:
     return status
 
 
-def _time_scale(text: str) -> float:
-    value = float(text)
+def _time_scale(text: str) -> float | str:
+    if text == "auto":
+        return text
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"the time scale is a number or 'auto', not {text!r}") from None
     if not 1.0 <= value <= 1000.0:
         raise argparse.ArgumentTypeError("the time scale is 1 (real time) to 1000 wall seconds per simulated second")
     return value
@@ -46,7 +51,8 @@ def _cmd_run(args) -> int:
         scenario.capture.pcap = True
     if args.time_scale is not None:
         scenario.time_scale = args.time_scale
-    scaled = f" at time scale {scenario.time_scale:g} (virtual time)" if scenario.time_scale != 1 else ""
+    scaled = (" at the time scale calibrated before t = 0" if scenario.time_scale == "auto" else
+              f" at time scale {scenario.time_scale:g} (virtual time)" if scenario.time_scale != 1 else "")
     print(f"sdvisc: running {path} -> {out}/{scaled}")
     try:
         summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path))
@@ -73,6 +79,17 @@ def _print_result(summary: dict, out: Path) -> None:
         print(f"  recovery {r['wt']} after {r['fault']['type']} ({r['cause']}): {took}")
     for name, code in summary.get("processes_exited_early", {}).items():
         print(f"sdvisc: warning: {name} exited early with code {code}; see {out}/{name}.log")
+    cal = summary.get("time", {}).get("calibration")
+    if cal:
+        print(f"sdvisc: time scale {cal['time_scale']:g} chosen before t = 0"
+              + ("" if cal["met"] else " (the largest tried: the limits were not met, see summary.json time.calibration)"))
+    for name, t in summary["turbines"].items():
+        rtt = t.get("round_trip_samples")
+        if rtt:
+            print(f"  {name}: MEAS->CTRL round trip within one sample for {rtt['within_one']:.1%} of answers "
+                  f"(median {rtt['median']} samples)")
+    if summary.get("advice"):
+        print(f"sdvisc: warning: {summary['advice']}")
     print(f"sdvisc: results in {out}/summary.json, events.jsonl, timeseries.csv")
 
 
@@ -98,8 +115,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--cli", action="store_true", help="open the Mininet CLI while the scenario runs")
     p.add_argument("--pcap", action="store_true", help="capture on the SDC host into the output directory")
     p.add_argument("--quiet", action="store_true", help="no progress output")
-    p.add_argument("--time-scale", type=_time_scale, default=None, metavar="K",
-                   help="wall seconds per simulated second (virtual time; overrides the scenario's time_scale)")
+    p.add_argument("--time-scale", type=_time_scale, default=None, metavar="K|auto",
+                   help="wall seconds per simulated second (virtual time; overrides the scenario's time_scale); "
+                        "auto: measure before t = 0 and take the smallest of 1, 2, 4 … 64 that holds")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
     p.add_argument("files", nargs="+")

@@ -18,11 +18,6 @@ def sdcs(sc: Scenario) -> list[tuple[str, int, str]]:
     return [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
 
 
-def clock_settings(sc: Scenario, epoch: float) -> dict:
-    """The run's one clock, the same for every process: time scale k and the shared epoch."""
-    return {"time_scale": sc.time_scale, "clock_epoch": epoch}
-
-
 def app_config(sc: Scenario, desc: dict, out_dir: str, clock: dict | None = None) -> AppConfig:
     return AppConfig(**(clock or {}), topology=desc, controller_vip=CONTROLLER_VIP, controller_vmac=CONTROLLER_VMAC,
                      visc_disabled=sc.sdn.visc_disabled, dr_hold_s=sc.sdn.dr_hold_s, ak_timeout_s=sc.sdn.ak_timeout_s,
@@ -44,12 +39,14 @@ def owfcc_config(sc: Scenario, out_dir: str, clock: dict | None = None) -> Owfcc
 
 
 def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | None],
-                 clock: dict | None = None) -> PlantConfig:
-    """``pids``: a process in each turbine's network namespace (the Mininet host's shell)."""
+                 clock: dict | None = None, open_ended: bool = False) -> PlantConfig:
+    """``pids``: a process in each turbine's network namespace (the Mininet host's shell);
+    ``open_ended``: the plant runs until it is told to stop (an interactive session), not ``duration_s``."""
     turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"], "pid": pids.get(n)}
                 for n, h in sorted(desc["hosts"].items()) if h["role"] == "turbine"]
     p = sc.plant
-    return PlantConfig(**(clock or {}), step_s=sc.step_s, controller_vip=CONTROLLER_VIP, out_dir=out_dir, duration_s=sc.duration_s,
+    return PlantConfig(**(clock or {}), step_s=sc.step_s, controller_vip=CONTROLLER_VIP, out_dir=out_dir,
+                       duration_s=None if open_ended else sc.duration_s,
                        turbines=turbines, model=p.model, record=p.record or sc.turbines_named(),
                        record_every=p.record_every, ak_period_s=p.ak_period_s, ak_window_s=p.ak_window_s,
                        remote_loss_fallback_s=p.remote_loss_fallback_s, remote_apply=p.remote_apply,

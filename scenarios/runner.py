@@ -21,6 +21,7 @@ from pathlib import Path
 from mininet.node import RemoteController
 
 from scenarios import configs
+from scenarios.calibrate import Calibration, calibration_line
 from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
@@ -63,8 +64,9 @@ class Run:
         self.net = None
         self.timeline_events: list[dict] = []
         self.t0: float | None = None  # the run clock's reading at t = 0 (simulated seconds)
-        self.clock = Clock(scenario.time_scale, time.time())  # the run's one clock, shared by every process
-        self.clock_settings = {"time_scale": self.clock.time_scale, "clock_epoch": self.clock.epoch}
+        self.auto_time_scale = scenario.time_scale == "auto"
+        self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
+        self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
         self.wall_started: float | None = None
         self.wall_ended: float | None = None
         self.cpu_at_start: dict[str, float] = {}
@@ -83,6 +85,11 @@ class Run:
     restarts = property(lambda self: self.processes.restarts)
     exited_early = property(lambda self: self.processes.exited_early)
     no_controller = property(lambda self: self.processes.no_controller)
+
+    def set_time_scale(self, k: float) -> None:
+        """The run's one clock, shared by every process (set before any of them starts)."""
+        self.clock = Clock(k, time.time())
+        self.clock_settings = {"time_scale": self.clock.time_scale, "clock_epoch": self.clock.epoch}
 
     def record(self, event: dict) -> None:
         """Add an event of the runner's own (timeline actions, restarts, CLI actions) to events.jsonl."""
@@ -108,27 +115,16 @@ class Run:
         sc = self.scenario
         topo = topos[sc.topology.name](**sc.topology.params())
         self.desc = describe(topo)
-        port = _free_port()
-        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings), self.out / "sdn_config.json")
-        app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
-        if sc.sdn.redundancy:
-            port2, peer_a, peer_b = _free_port(), _free_port(), _free_port()
-            self.processes.start("controller", app + ["--ofp-port", str(port), "--role", "master", "--instance", "1",
-                                             "--peer", f"{peer_a}:{peer_b}"])
-            self.processes.start("controller2", app + ["--ofp-port", str(port2), "--role", "slave", "--instance", "2",
-                                              "--peer", f"{peer_b}:{peer_a}"])
-            self._wait_listening(port, "controller")
-            self._wait_listening(port2, "controller2")
-        else:
-            self.processes.start("controller", app + ["--ofp-port", str(port)])
-            self._wait_listening(port, "controller")
+        ports = [_free_port(), _free_port()]
+        if not self.auto_time_scale:
+            self._start_sdn_apps(ports)
         self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
         self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
                            waitConnected=False)
-        self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=port)
+        self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=ports[0])
         if sc.sdn.redundancy:
-            self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=port2)
+            self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=ports[1])
         self.net.build()
         self.net.start()
         for sw in self.net.switches:
@@ -139,7 +135,29 @@ class Run:
         self.net.staticArp()
         for host in self.net.hosts:
             host.cmd(f"arp -s {CONTROLLER_VIP} {CONTROLLER_VMAC}")
+        if self.auto_time_scale:  # measured before the SDN app starts (its config carries the clock)
+            self._say("sdvisc: time_scale auto: probing the plant, the SDC and the network at k = 1, 2, 4, …")
+            self.calibration = Calibration(self).measure()
+            self.set_time_scale(self.calibration["time_scale"])
+            self._say(calibration_line(self.calibration))
+            self._start_sdn_apps(ports)  # the switches reconnect within their max_backoff (1 s)
         self._wait_switches()
+
+    def _start_sdn_apps(self, ports: list[int]) -> None:
+        sc = self.scenario
+        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings), self.out / "sdn_config.json")
+        app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
+        if sc.sdn.redundancy:
+            peer_a, peer_b = _free_port(), _free_port()
+            self.processes.start("controller", app + ["--ofp-port", str(ports[0]), "--role", "master", "--instance", "1",
+                                                      "--peer", f"{peer_a}:{peer_b}"])
+            self.processes.start("controller2", app + ["--ofp-port", str(ports[1]), "--role", "slave", "--instance", "2",
+                                                       "--peer", f"{peer_b}:{peer_a}"])
+            self._wait_listening(ports[0], "controller")
+            self._wait_listening(ports[1], "controller2")
+        else:
+            self.processes.start("controller", app + ["--ofp-port", str(ports[0])])
+            self._wait_listening(ports[0], "controller")
 
     def _wait_listening(self, port: int, name: str) -> None:
         deadline = time.time() + SWITCH_CONNECT_TIMEOUT_S

@@ -196,10 +196,12 @@ class Scenario(Strict):
     name: str
     description: str = ""
     topology: TopologySpec = Field(default_factory=TopologySpec)
-    duration_s: float = Field(gt=0, le=3600)
+    duration_s: float | None = Field(gt=0, le=3600, description="simulated seconds; null: open-ended (only with "
+                                     "sdvisc run --cli, which ends the session)")
     step_s: float = Field(0.67e-3, gt=0, le=0.1, description="plant/SDC sampling period Ts")
-    time_scale: float = Field(1.0, ge=1.0, le=1000.0, description="wall seconds per simulated second (virtual "
-                              "time: every component k times slower, the network k times faster); 1 = real time")
+    time_scale: Annotated[float, Field(ge=1.0, le=1000.0)] | Literal["auto"] = Field(
+        1.0, description="wall seconds per simulated second (virtual time: every component k times slower, the "
+                         "network k times faster); 1 = real time; auto = measured before t = 0 (scenarios.calibrate)")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)

@@ -124,9 +124,40 @@ def time_section(run) -> dict:
     k = clock.time_scale if clock is not None else 1.0
     started = getattr(run, "wall_started", None)
     ended = getattr(run, "wall_ended", None)
-    return {"time_scale": k, "units": "simulated seconds",
-            "wall_duration_s": round(ended - started, 3) if started and ended else None,
-            "not_scaled": list(NOT_SCALED) if k != 1 else []}
+    out = {"time_scale": k, "units": "simulated seconds",
+           "wall_duration_s": round(ended - started, 3) if started and ended else None,
+           "not_scaled": list(NOT_SCALED) if k != 1 else []}
+    calibration = getattr(run, "calibration", None)
+    if calibration is not None:
+        out["calibration"] = calibration
+    return out
+
+
+LATE_ADVICE_FRACTION = 0.01
+
+
+def time_advice(k: float, steps: int, late_steps: int) -> str | None:
+    """What to do when more than 1 % of the plant's steps were late at time scale ``k``."""
+    if not steps or late_steps <= LATE_ADVICE_FRACTION * steps:
+        return None
+    return (f"{late_steps / steps:.1%} of the plant's steps were late at time scale {k:g}: this machine could not "
+            f"keep up; run again with --time-scale {2 * k:g} (or auto)")
+
+
+def round_trip(histogram: dict | None) -> dict | None:
+    """MEAS → CTRL round trip, in samples, of the control answers a turbine applied: the count per
+    number of samples, the share within one sample (the paper's one-sample loop) and the median."""
+    if not histogram:
+        return None
+    total = sum(histogram.values())
+    order = sorted(histogram, key=lambda key: int(key.lstrip(">")) + (1 if key.startswith(">") else 0))
+    acc, median = 0, None
+    for key in order:
+        acc += histogram[key]
+        if median is None and acc * 2 >= total:
+            median = key
+    return {"counts": {key: histogram[key] for key in order}, "within_one": round(histogram.get("1", 0) / total, 4),
+            "median": median}
 
 
 def cpu_section(run, steps: int, plant_cpu_s: float | None = None) -> dict:
@@ -183,6 +214,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
             "ctrl_gaps": [[round(a - run.t0, 6), round(b - run.t0, 6)] for a, b in stats.get("ctrl_gaps_wall", [])]
             if run.t0 else [],
             "takeover_jump_pu": stats.get("takeover_jump_pu"),
+            "round_trip_samples": round_trip(stats.get("rtt_samples")),
             "one_way_delay_ms": {
                 "meas_to_sdc": next((r.get("meas_one_way_ms") for r in sdc_rows.values() if r.get("meas_one_way_ms")), None),
                 "ctrl_to_turbine": stats.get("ctrl_one_way_ms"),
@@ -202,6 +234,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "step_s": sc.step_s,
         "steps": plant.get("steps", 0),
         "late_steps": plant.get("late_steps", 0),
+        "advice": time_advice(run.clock.time_scale if getattr(run, "clock", None) else 1.0, plant.get("steps", 0),
+                              plant.get("late_steps", 0)),
         "max_lateness_ms": plant.get("max_lateness_ms"),
         "converter_trips": plant.get("converter_trips", {}),
         "fallbacks": plant.get("fallbacks", {}),

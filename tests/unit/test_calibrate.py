@@ -1,0 +1,179 @@
+"""``time_scale: auto``: the choice of k from measured costs, the temporary probe rules (followed hop
+by hop on the real topology descriptions), the probe datagrams and the echo over real UDP."""
+
+from __future__ import annotations
+
+import json
+import socket
+import subprocess
+import sys
+import time
+
+import networkx as nx
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from scenarios.calibrate import (
+    BUSY_LIMIT,
+    CANDIDATES,
+    ONE_WAY_LIMIT_STEPS,
+    PROBE_COOKIE_TEXT,
+    choose,
+    probe_flows,
+    shortfalls,
+)
+from scenarios.summary import round_trip, time_advice
+from sdvisc import probe
+from topologies import topos
+from topologies.base import describe
+
+TS = 0.67e-3
+
+
+def test_real_time_passes_when_everything_fits():
+    assert shortfalls(1, TS, plant_step_s=0.2 * TS, sdc_round_s=0.1 * TS, worst_one_way_p99_wall_s=0.3 * TS) == []
+
+
+@pytest.mark.parametrize("k", CANDIDATES)
+def test_each_limit_is_applied_in_simulated_time(k):
+    period = k * TS
+    assert shortfalls(k, TS, BUSY_LIMIT * period * 1.01, 0.0, None)[0].startswith("plant")
+    assert shortfalls(k, TS, 0.0, BUSY_LIMIT * period * 1.01, None)[0].startswith("SDC")
+    assert shortfalls(k, TS, BUSY_LIMIT * period * 0.99, BUSY_LIMIT * period * 0.99, None) == []
+    # a wall one-way delay of k·Ts/2 is Ts/2 in simulated time: just at the limit
+    limit_wall = ONE_WAY_LIMIT_STEPS * TS * k
+    assert shortfalls(k, TS, 0.0, 0.0, limit_wall * 0.99) == []
+    assert "one-way" in shortfalls(k, TS, 0.0, 0.0, limit_wall * 1.01)[0]
+    assert "lost" in shortfalls(k, TS, 0.0, 0.0, None, lost=3)[0]
+
+
+def test_choose_takes_the_smallest_passing_k_else_the_largest_tried():
+    assert choose([{"k": 1, "ok": False}, {"k": 2, "ok": False}, {"k": 4, "ok": True}]) == (4.0, True)
+    assert choose([{"k": 1, "ok": True}]) == (1.0, True)
+    assert choose([{"k": k, "ok": False} for k in CANDIDATES]) == (64.0, False)
+
+
+def _walk(desc: dict, flows: dict, src_switch: str, dst_host: str, match: str) -> list[str]:
+    """Follow the probe rules from ``src_switch`` to ``dst_host``; a non-OpenFlow (learning) switch
+    forwards toward the destination as it will once it has learned the MAC."""
+    g = nx.Graph()
+    by_port = {}
+    for link in desc["links"]:
+        g.add_edge(link["a"], link["b"])
+        by_port[(link["a"], link["a_port"])] = link["b"]
+        by_port[(link["b"], link["b_port"])] = link["a"]
+    for name, h in desc["hosts"].items():
+        g.add_edge(name, h["switch"])
+        by_port[(h["switch"], h["port"])] = name
+    node, seen = src_switch, [src_switch]
+    while node != dst_host:
+        assert len(seen) < 50, f"probe loops: {seen}"
+        if desc["switches"][node]["openflow"]:
+            rules = [r for r in flows.get(node, []) if match in r]
+            assert len(rules) == 1, f"{node}: {len(rules)} rules for {match}"
+            assert rules[0].startswith(PROBE_COOKIE_TEXT)
+            node = by_port[(node, int(rules[0].rsplit("output:", 1)[1]))]
+        else:
+            node = nx.shortest_path(g, node, dst_host)[1]
+        seen.append(node)
+    return seen
+
+
+@pytest.mark.parametrize(("name", "params", "turbines"), [
+    ("paper", {}, ["wt1_1"]),
+    ("paper", {"clusters": 5, "turbines": 2}, ["wt1_1", "wt3_2", "wt5_1"]),
+    ("farm", {}, ["wt1_1", "wt2_1", "wt3_1", "wt5_1"]),
+    ("farm", {"clusters": 5, "turbines": 10, "layout": "tower"}, ["wt1_10", "wt4_3"]),
+])
+def test_probe_rules_carry_each_turbine_to_the_sdc_and_back(name, params, turbines):
+    desc = describe(topos[name](**params))
+    hosts = desc["hosts"]
+    flows = probe_flows(desc, "sdc1", turbines)
+    g = nx.Graph([(link["a"], link["b"]) for link in desc["links"]])
+    for wt in turbines:
+        out = _walk(desc, flows, hosts[wt]["switch"], "sdc1", f"nw_dst={hosts['sdc1']['ip']},")
+        back = _walk(desc, flows, hosts["sdc1"]["switch"], wt, f"nw_dst={hosts[wt]['ip']},")
+        shortest = nx.shortest_path_length(g, hosts[wt]["switch"], hosts["sdc1"]["switch"])
+        assert len(out) - 2 == shortest and len(back) - 2 == shortest  # hop count of the first path
+
+
+def test_probe_rules_name_only_openflow_switches_and_a_missing_path_is_an_error():
+    desc = describe(topos["paper"]())
+    flows = probe_flows(desc, "sdc1", ["wt1_1"])
+    assert set(flows) <= {n for n, s in desc["switches"].items() if s["openflow"]}
+    desc["links"] = []  # every turbine cut off
+    with pytest.raises(ValueError, match="no path from wt1_1"):
+        probe_flows(desc, "sdc1", ["wt1_1"])
+
+
+@given(st.integers(1, 2**31 - 1), st.integers(0, 2**31 - 1), st.integers(1, 2**62), st.integers(0, 2**62))
+def test_probe_round_trips(wid, seq, t_send, t_echo):
+    data = probe.encode(wid, seq, t_send, t_echo)
+    assert len(data) == probe.PAYLOAD_BYTES
+    assert probe.decode(data) == (wid, seq, t_send, t_echo)
+
+
+@given(st.binary(max_size=200))
+def test_anything_else_is_not_a_probe(data):
+    decoded = probe.decode(data)
+    assert decoded is None or data[:4] == probe.MAGIC.to_bytes(4, "big")
+
+
+def test_echo_answers_over_udp_with_its_receive_stamp(tmp_path):
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        port = s.getsockname()[1]
+    ready = tmp_path / "echo.json"
+    echo = subprocess.Popen([sys.executable, "-m", "sdvisc.probe", "echo", "--bind", "127.0.0.1", "--port", str(port),
+                             "--out", str(ready)])
+    try:
+        deadline = time.time() + 20
+        while not ready.exists():
+            assert echo.poll() is None and time.time() < deadline, "the echo did not start"
+            time.sleep(0.02)
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        sock.bind(("127.0.0.1", 0))
+        probe.enable_rx_timestamps(sock)
+        sock.sendto(b"garbage", ("127.0.0.1", port))
+        t_send = time.time_ns()
+        sock.sendto(probe.encode(101, 7, t_send), ("127.0.0.1", port))
+        sock.settimeout(5)
+        sock.setblocking(True)
+        data, _addr, t_rx = probe.recv_stamped(sock)
+        wid, seq, sent, t_echo = probe.decode(data)
+        assert (wid, seq, sent) == (101, 7, t_send)
+        assert t_send < t_echo <= t_rx  # stamped by the kernel on each side, one clock
+        sock.close()
+    finally:
+        echo.terminate()
+        echo.wait(timeout=10)
+    counts = json.loads(ready.read_text())
+    assert counts["done"] and counts["echoed"] == 1 and counts["malformed"] == 1
+
+
+def test_round_trip_histogram_summary():
+    assert round_trip(None) is None
+    rt = round_trip({"2": 10, "1": 89, ">7": 1})
+    assert list(rt["counts"]) == ["1", "2", ">7"] and rt["within_one"] == 0.89 and rt["median"] == "1"
+    assert round_trip({"1": 10, "3": 30})["median"] == "3"
+
+
+def test_late_steps_advice_names_a_larger_time_scale():
+    assert time_advice(2, 1000, 10) is None
+    assert "--time-scale 4" in time_advice(2, 1000, 11)
+    assert time_advice(1, 0, 0) is None
+
+
+def test_scenario_time_scale_is_a_number_or_auto(tmp_path):
+    from scenarios.loader import ScenarioError, load_scenario
+
+    base = "name: t\nduration_s: 1\n"
+    for good, want in (("auto", "auto"), ("4", 4.0)):
+        path = tmp_path / f"{good}.yaml"
+        path.write_text(base + f"time_scale: {good}\n")
+        assert load_scenario(path).time_scale == want
+    path = tmp_path / "bad.yaml"
+    path.write_text(base + "time_scale: fast\n")
+    with pytest.raises(ScenarioError, match=r"bad.yaml:3: time_scale"):
+        load_scenario(path)
