@@ -7,7 +7,9 @@ socket in the turbine host's network namespace (bound to the turbine IP, port
 application tells it to (``REQUEST STREAM_START``, which also names the SDC); from then on, each
 step it sends one ``MEAS``, applies the newest ``CTRL`` it received (hold last value; fall back
 after the model's loss time), and reports ``AK`` (1 when a ``CTRL`` arrived within
-``ak_window_s``) to the SDN application every ``ak_period_s`` and at once whenever it changes. Scenario events arrive as JSON lines on stdin.
+``ak_window_s``) to the SDN application every ``ak_period_s`` and at once whenever it changes. Scenario events arrive as JSON lines on stdin
+(``{"type": "stop"}`` ends the run; without ``duration_s`` the plant runs until then). While it runs
+it publishes its status and events (:mod:`plant.live`).
 Malformed, unexpected or implausible packets are dropped and counted by reason, never applied
 (:mod:`plant.endpoint_rx`).
 """
@@ -26,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from plant import endpoint_rx
+from plant.live import STATUS_EVERY_S, LivePublisher
 from plant.recorder import Recorder
 from sdvisc import wire
 from sdvisc.config import ConfigError, PlantConfig, load_config
@@ -33,6 +36,7 @@ from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
 
+RTT_BINS = 8
 CTRL_GAP_S = 0.005  # a pause between control packets longer than this is recorded as a gap
 
 
@@ -63,6 +67,13 @@ class Endpoint:
     last_v_ref: complex | None = None
     backup_seen: bool = False
     takeover_jump: float | None = None
+    # CTRL answers by round trip in samples: [1, 2, …, RTT_BINS-1, more] (1 = applied in the step
+    # right after the MEAS it answers: the paper's one-sample loop delay)
+    rtt_samples: list = field(default_factory=lambda: [0] * RTT_BINS)
+    awaiting_first_ctrl: bool = False  # streaming started, no control packet yet (plant.live)
+    stream_started_wall: float = 0.0
+    ctrl_lost_reported: bool = False
+    live_delay: list = field(default_factory=lambda: [0.0, 0])  # sum (ms) and count since the last status
 
 
 FARM_TURBINES_PER_CLUSTER = 10
@@ -114,7 +125,7 @@ class PlantService:
         self.cfg = cfg
         self.clock = cfg.clock()  # the run's one clock: pacing, AK timing, header stamps, delays
         self.step_s = cfg.step_s
-        self.n_steps = int(round(cfg.duration_s / self.step_s))
+        self.n_steps = int(round(cfg.duration_s / self.step_s)) if cfg.duration_s is not None else None  # None: until stopped
         self.header = cfg.header
         self.vip = cfg.controller_vip
         self.ak_every = max(1, int(round(cfg.ak_period_s / self.step_s)))
@@ -143,6 +154,7 @@ class PlantService:
         if self.commands is not None:
             self.poller.register(self.commands.fd, select.EPOLLIN)
         self.stop_requested = False
+        self.live = LivePublisher(self.out_dir, self.events_applied)
 
     # ------------------------------------------------------------------ receive
     def _drain(self, now: float) -> None:
@@ -174,7 +186,7 @@ class PlantService:
                         if ep.streaming:
                             newest[ep.index] = msg
                     elif action == endpoint_rx.REQUEST:
-                        self._on_request(ep, msg)
+                        self._on_request(ep, msg, now)
                 except Exception as error:  # noqa: BLE001 - counted and logged once
                     endpoint_rx.count_internal(ep.counts, error)
         if newest:
@@ -185,6 +197,8 @@ class PlantService:
     def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
         """Account for one CTRL that :func:`plant.endpoint_rx.receive` accepted (the newest so far)."""
         ep.counts["ctrl_rx"] += 1
+        rtt = ep.meas_seq - int(msg["meas_seq"])  # 0: answers the MEAS sent at the end of the last step
+        ep.rtt_samples[min(max(rtt, 0), RTT_BINS - 1)] += 1
         if ep.last_ctrl_wall > float("-inf") and now - ep.last_ctrl_wall > CTRL_GAP_S:
             ep.ctrl_gaps.append((ep.last_ctrl_wall, now))
         v_ref = complex(msg["v_ref_d"], msg["v_ref_q"])
@@ -193,29 +207,37 @@ class PlantService:
             ep.backup_seen = True
             ep.takeover_jump = abs(v_ref - ep.last_v_ref) if ep.last_v_ref is not None else None
         ep.last_v_ref = v_ref
+        self.live.on_ctrl(ep, now)
         ep.last_ctrl_wall = now
         ep.loss_reported = False
         t_sim = self.k * self.step_s
         ep.last_ctrl_rx_t = t_sim
         if ep.first_ctrl_rx_t is None:
             ep.first_ctrl_rx_t = t_sim
-        if msg.header is not None and len(ep.ctrl_delays_ms) < 200_000:
-            ep.ctrl_delays_ms.append((now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3)
+        if msg.header is not None:
+            delay_ms = (now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3
+            ep.live_delay[0] += delay_ms
+            ep.live_delay[1] += 1
+            if len(ep.ctrl_delays_ms) < 200_000:
+                ep.ctrl_delays_ms.append(delay_ms)
 
-    def _on_request(self, ep: Endpoint, msg: wire.Message) -> None:
+    def _on_request(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
         """Carry out a STREAM_START/STREAM_STOP that :func:`plant.endpoint_rx.receive` accepted."""
         ep.counts["requests_rx"] += 1
         cmd = msg["cmd"]
         t_sim = self.k * self.step_s
         if cmd == wire.Command.STREAM_START:
+            if not ep.streaming:
+                ep.awaiting_first_ctrl = True
+                ep.stream_started_wall = now
             ep.streaming = True
             ep.sdc_addr = (wire.i32_to_ip(msg["sdc_ip"]), wire.PORT_SDC)
             self.model.set_mode(ep.index, "remote")
-            self.events_applied.append({"t": t_sim, "type": "stream_start", "wt": ep.name, "sdc": ep.sdc_addr[0]})
+            self.live.event({"t": t_sim, "type": "stream_start", "wt": ep.name, "sdc": ep.sdc_addr[0]})
         elif cmd == wire.Command.STREAM_STOP:
             ep.streaming = False
             self.model.set_mode(ep.index, "grid_following")
-            self.events_applied.append({"t": t_sim, "type": "stream_stop", "wt": ep.name})
+            self.live.event({"t": t_sim, "type": "stream_stop", "wt": ep.name})
 
     def _apply_event(self, event: dict) -> None:
         kind = event["type"]
@@ -235,7 +257,7 @@ class PlantService:
             setter(event["value"])
         else:
             raise ValueError(f"plant cannot apply event {kind!r}")
-        self.events_applied.append({"t": self.k * self.step_s, **event})
+        self.live.event({"t": self.k * self.step_s, **event})
 
     # ------------------------------------------------------------------ send
     def _send(self, now: float) -> None:
@@ -284,20 +306,14 @@ class PlantService:
             pass
 
     # ------------------------------------------------------------------ loop
-    def _write_status(self, now: float) -> None:
-        status = {"t_sim": self.k * self.step_s, "steps": self.k, "n_steps": self.n_steps,
-                  "late_steps": self.late_steps, "t_wall": now,
-                  "meas_tx": sum(ep.counts["meas_tx"] for ep in self.endpoints),
-                  "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in self.endpoints),
-                  "streaming": [ep.name for ep in self.endpoints if ep.streaming]}
-        write_json_atomic(self.out_dir / "plant_status.json", status)
-
     def run(self) -> None:
         clock = self.clock
         t0 = float(self.cfg.t0_wall or clock.now())
+        self.live.t0 = t0
         cpu_at_start = time.process_time()
-        status_every = max(1, int(0.1 / self.step_s))
-        while self.k < self.n_steps and not self.stop_requested:
+        status_every = max(1, int(STATUS_EVERY_S / self.step_s))
+        end = self.n_steps if self.n_steps is not None else float("inf")
+        while self.k < end and not self.stop_requested:
             scheduled = t0 + self.k * self.step_s  # every time here is the run's clock (simulated seconds)
             now = clock.now()
             if now < scheduled:
@@ -317,8 +333,9 @@ class PlantService:
             self._send(now)
             self.recorder.maybe_record(self.k, self.model)
             if self.k % status_every == 0:
-                self._write_status(now)
-        self._write_status(clock.now())
+                self.live.check_losses(self.endpoints, now)
+                self.live.write_status(self, now)
+        self.live.write_status(self, clock.now())
         self.cpu_s = time.process_time() - cpu_at_start  # from t = 0: what the paced loop cost
 
     def summary(self) -> dict:
@@ -341,13 +358,16 @@ class PlantService:
                           "last_ctrl_rx_t": ep.last_ctrl_rx_t, "ak_ones": ep.ak_ones,
                           "ctrl_gaps_wall": ep.ctrl_gaps, "takeover_jump_pu": ep.takeover_jump,
                           "last_ctrl_wall": ep.last_ctrl_wall if ep.last_ctrl_wall > float("-inf") else None,
-                          "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms)}
+                          "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms),
+                          "rtt_samples": {**{str(n + 1): c for n, c in enumerate(ep.rtt_samples[:-1]) if c},
+                                          **({f">{RTT_BINS - 1}": ep.rtt_samples[-1]} if ep.rtt_samples[-1] else {})}}
                 for ep in self.endpoints
             },
         }
 
     def close(self) -> None:
         self.recorder.close()
+        self.live.close()
         for ep in self.endpoints:
             ep.sock.close()
         self.poller.close()

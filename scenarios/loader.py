@@ -98,7 +98,7 @@ class _Parts:
     """What the cross-section checks need: the parts of the file that validated on their own."""
 
     topology: TopologySpec
-    duration_s: float | None  # None: duration_s itself is invalid
+    duration_s: float | None  # None: duration_s itself is invalid, or open-ended (null)
     model: str | None  # None: plant.model is invalid
     events: list[tuple[int, object]]  # (index in the timeline, validated event)
     turbines: list[tuple[tuple, str]]  # (key path, name) of sdn.visc_disabled and plant.record
@@ -118,7 +118,7 @@ class _Parts:
 
         topology = TopologySpec.model_validate(data["topology"]) if "topology" in data and ok("topology") \
             else TopologySpec()
-        duration = float(data["duration_s"]) if "duration_s" in data and ok("duration_s") else None
+        duration = float(data["duration_s"]) if data.get("duration_s") is not None and ok("duration_s") else None
         plant = data.get("plant", {})
         model = plant.get("model", "minimal") if isinstance(plant, dict) and ok("plant", "model") else None
         events = []

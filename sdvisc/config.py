@@ -83,7 +83,7 @@ class TurbineEndpoint(_Config):
 class PlantConfig(ServiceBase):
     """``python -m plant.service``."""
 
-    duration_s: float = Field(gt=0, le=3600)
+    duration_s: float | None = Field(gt=0, description="simulated seconds to run; None: until a stop command")
     turbines: list[TurbineEndpoint]
     model: Literal["minimal", "full"] = "minimal"
     record: list[str] = Field(default_factory=list, description="turbines whose signals go to timeseries.csv")
@@ -126,6 +126,7 @@ class LinkInfo(_Config):
     a_port: int
     b: str
     b_port: int
+    element: str | None = Field(None, description="impairment element (host) in the link, transparent at L2")
 
 
 class TopologyInfo(_Config):
@@ -158,6 +159,26 @@ class AppConfig(ClockSettings):
                                       "long falls back to its own control (plant.remote_loss_fallback_s)")
     state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
     header: bool = Field(True, description="GTNET packets carry the VILLAS 3-word header")
+
+
+class ImpairNodeConfig(ClockSettings):
+    """``python -m sdvisc.impair_node``: an impairment element forwarding frames between its two
+    interfaces (one toward switch ``a``, one toward ``b``) through a timed queue."""
+
+    name: str = Field(description="the element's host name")
+    a: str
+    b: str
+    intf_a: str = Field(description="the element's interface toward a")
+    intf_b: str = Field(description="the element's interface toward b")
+    out_dir: str
+    delay_ms: float = Field(0.0, ge=0, le=10_000)
+    jitter_ms: float = Field(0.0, ge=0, le=10_000)
+    loss: float = Field(0.0, ge=0, le=1)
+    bw_mbps: float | None = Field(None, gt=0, le=100_000)
+    seed: int = Field(1, description="loss and jitter draws (numpy generator)")
+    realtime_priority: bool = Field(True, description="run at SCHED_FIFO where allowed")
+    spin_us: float = Field(0.0, ge=0, le=1000, description="busy-wait this long before a release instead of sleeping")
+    status_period_s: float = Field(0.5, gt=0, description="wall seconds between status file writes")
 
 
 C = TypeVar("C", bound=BaseModel)

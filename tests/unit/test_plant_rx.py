@@ -18,6 +18,7 @@ from hypothesis import strategies as st
 
 from plant import endpoint_rx
 from plant.endpoint_rx import APPLY, IGNORE, MAX_REF_PU, REASONS, REQUEST, receive
+from plant.live import LivePublisher
 from plant.service import Endpoint, PlantService
 from sdvisc import wire
 
@@ -316,6 +317,7 @@ def service(queue: list, model=None) -> PlantService:
     svc.header, svc.vip, svc.check_rx_source = True, VIP, True
     svc.rx_stats, svc.model, svc.events_applied = wire.DecodeStats(), model or RecordingModel(), []
     svc.k, svc.step_s = 0, 0.001
+    svc.live = LivePublisher(None, svc.events_applied)
     return svc
 
 

@@ -1,0 +1,102 @@
+"""What the plant service publishes while it runs, for the runner's CLI and live view.
+
+* ``plant_status.json`` (replaced atomically every :data:`STATUS_EVERY_S` simulated seconds):
+  simulated time, steps, late steps, packet totals, the streaming (ViSC) turbines, and per turbine
+  its packet counters and, for the streaming ones, V (|v|, p.u.), P, Q (p.u.), f (Hz, from the
+  turbine's measured speed) and the mean one-way delay of the control packets since the last
+  status.
+* ``plant_events.jsonl`` (one line per event as it happens; the same records go to
+  ``plant_stats.json`` → ``events.jsonl`` at the end): requests and commands the plant carried out
+  and what happened to each streaming turbine's control packets — ``ctrl_started`` (the first
+  control packet after a stream start), ``ctrl_lost`` (none for :data:`LOSS_REPORT_S`; ``t_loss``
+  is the last one) and ``ctrl_restored`` (the first one after a gap of at least
+  :data:`LOSS_REPORT_S`; ``t_loss``, ``gap_ms``). Their ``t`` is the run clock's reading (s from
+  t = 0), the axis of the SDN app's events.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from sdvisc.jsonlines import write_json_atomic
+from sdvisc.vocabulary import F_NOMINAL_HZ
+
+STATUS_EVERY_S = 0.05  # simulated seconds between two plant_status.json
+LOSS_REPORT_S = 0.020  # a silence this long is a loss of control packets (summary: MIN_INTERRUPTION_S)
+
+
+class LivePublisher:
+    """The plant's live status file and event stream (see the module docstring)."""
+
+    def __init__(self, out_dir: Path | None, events: list[dict]) -> None:
+        """``out_dir`` None: events are only collected (no files)."""
+        self.out_dir = Path(out_dir) if out_dir is not None else None
+        self.events = events  # the service's list of applied events (plant_stats.json)
+        self._file = (open(self.out_dir / "plant_events.jsonl", "a", buffering=1)  # noqa: SIM115 - closed in close()
+                      if self.out_dir is not None else None)
+        self.t0 = 0.0
+
+    def event(self, record: dict) -> None:
+        self.events.append(record)
+        if self._file is not None:
+            self._file.write(json.dumps(record) + "\n")
+
+    def _t(self, now: float) -> float:
+        return round(now - self.t0, 6)
+
+    # ------------------------------------------------------------------ control packets
+    def on_ctrl(self, ep, now: float) -> None:
+        """A control packet arrived for ``ep`` (before its ``last_ctrl_wall`` is updated)."""
+        if ep.awaiting_first_ctrl:
+            ep.awaiting_first_ctrl = False
+            ep.ctrl_lost_reported = False
+            self.event({"t": self._t(now), "type": "ctrl_started", "wt": ep.name,
+                        "after_ms": round((now - ep.stream_started_wall) * 1e3, 3)})
+            return
+        gap = now - ep.last_ctrl_wall
+        if gap >= LOSS_REPORT_S:
+            self.event({"t": self._t(now), "type": "ctrl_restored", "wt": ep.name,
+                        "t_loss": self._t(ep.last_ctrl_wall), "gap_ms": round(gap * 1e3, 3)})
+        ep.ctrl_lost_reported = False
+
+    def check_losses(self, endpoints, now: float) -> None:
+        """Report each streaming turbine whose control packets stopped (once per loss)."""
+        for ep in endpoints:
+            if (ep.streaming and not ep.awaiting_first_ctrl and not ep.ctrl_lost_reported
+                    and now - ep.last_ctrl_wall >= LOSS_REPORT_S):
+                ep.ctrl_lost_reported = True
+                self.event({"t": self._t(now), "type": "ctrl_lost", "wt": ep.name,
+                            "t_loss": self._t(ep.last_ctrl_wall)})
+
+    # ------------------------------------------------------------------ status
+    def write_status(self, service, now: float) -> None:
+        endpoints = service.endpoints
+        streaming = [ep for ep in endpoints if ep.streaming]
+        turbines = {}
+        meas = service.model.measurements() if streaming else None
+        for ep in endpoints:
+            row = {"streaming": ep.streaming, "meas_tx": ep.counts["meas_tx"], "ctrl_rx": ep.counts["ctrl_rx"]}
+            if ep.streaming:
+                i = ep.index
+                delay_sum_ms, delay_n = ep.live_delay
+                ep.live_delay[:] = [0.0, 0]
+                row.update(v=round(float(np.hypot(meas["v_d"][i], meas["v_q"][i])), 6),
+                           p=round(float(meas["p"][i]), 6), q=round(float(meas["q"][i]), 6),
+                           f_hz=round(float(meas["omega_meas"][i]) * F_NOMINAL_HZ, 5),
+                           ctrl_delay_ms=round(delay_sum_ms / delay_n, 4) if delay_n else None,
+                           t_last_ctrl=self._t(ep.last_ctrl_wall) if ep.last_ctrl_wall > float("-inf") else None)
+            turbines[ep.name] = row
+        status = {"t_sim": service.k * service.step_s, "steps": service.k, "n_steps": service.n_steps,
+                  "late_steps": service.late_steps, "t_wall": now,
+                  "meas_tx": sum(ep.counts["meas_tx"] for ep in endpoints),
+                  "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in endpoints),
+                  "streaming": [ep.name for ep in streaming], "turbines": turbines}
+        write_json_atomic(self.out_dir / "plant_status.json", status)
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
