@@ -17,7 +17,7 @@ The network carries the run's packet rate at that k while the plant and the SDC 
 they will, so the probe sees the contention of the run, not an idle machine. A candidate passes
 (:func:`shortfalls`) when the plant and the SDC are each at most :data:`BUSY_LIMIT` busy and every
 turbine's one-way delay p99, in simulated time (wall / k), is at most :data:`ONE_WAY_LIMIT_STEPS`
-× Ts (so MEAS → CTRL fits in one sample). Not measured: the SDN app's and the OWFCC's CPU (a few
+× Ts (so MEAS → CTRL fits in one sample, with the margin that constant explains). Not measured: the SDN app's and the OWFCC's CPU (a few
 % of a core at these rates), the plant's socket work for AKs, and the recorder.
 """
 
@@ -39,7 +39,11 @@ from sdvisc.vocabulary import FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS
 
 CANDIDATES = (1, 2, 4, 8, 16, 32, 64)
 BUSY_LIMIT = 0.5
-ONE_WAY_LIMIT_STEPS = 0.5
+ONE_WAY_LIMIT_STEPS = 0.25
+"""Probe one-way p99 limit in samples (simulated time). The issue asks for Ts/2 so that MEAS → CTRL fits
+in one sample; a probe loads the machine less than the run's services do (measured on
+fault_4visc_network at k = 4: probe p99 0.32 ms, the run's own MEAS/CTRL p99 0.71/0.94 ms simulated,
+26 % of the answers late by a sample, four converter trips), so the limit is half of that."""
 PROBE_WALL_S = 1.5  # wall time per candidate …
 MIN_PROBE_STEPS = 200  # … but at least this many steps (probes per turbine)
 PROBE_COOKIE = 0x5D5CA1E
@@ -58,7 +62,7 @@ def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_round_s: float,
         out.append(f"SDC {sdc_round_s / period:.0%} busy (limit {BUSY_LIMIT:.0%})")
     if worst_one_way_p99_wall_s is not None and worst_one_way_p99_wall_s / k > ONE_WAY_LIMIT_STEPS * step_s:
         out.append(f"one-way p99 {worst_one_way_p99_wall_s / k * 1e3:.3f} ms simulated "
-                   f"(limit {ONE_WAY_LIMIT_STEPS * step_s * 1e3:.3f} ms = Ts/2)")
+                   f"(limit {ONE_WAY_LIMIT_STEPS * step_s * 1e3:.3f} ms = {ONE_WAY_LIMIT_STEPS:g} Ts)")
     if lost:
         out.append(f"{lost} probes lost")
     return out

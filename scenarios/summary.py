@@ -136,12 +136,21 @@ def time_section(run) -> dict:
 LATE_ADVICE_FRACTION = 0.01
 
 
-def time_advice(k: float, steps: int, late_steps: int) -> str | None:
-    """What to do when more than 1 % of the plant's steps were late at time scale ``k``."""
-    if not steps or late_steps <= LATE_ADVICE_FRACTION * steps:
+def time_advice(k: float, steps: int, late_steps: int, within_one: dict[str, float] | None = None) -> str | None:
+    """What to do when more than 1 % of the plant's steps were late at time scale ``k``, or more
+    than 1 % of a turbine's control answers came a sample or more late (``within_one``: the share
+    within one sample per turbine)."""
+    said = []
+    if steps and late_steps > LATE_ADVICE_FRACTION * steps:
+        said.append(f"{late_steps / steps:.1%} of the plant's steps were late")
+    slow = {wt: share for wt, share in (within_one or {}).items() if share < 1 - LATE_ADVICE_FRACTION}
+    if slow:
+        worst = min(slow, key=slow.get)
+        said.append(f"MEAS->CTRL took more than one sample for {1 - slow[worst]:.1%} of {worst}'s answers")
+    if not said:
         return None
-    return (f"{late_steps / steps:.1%} of the plant's steps were late at time scale {k:g}: this machine could not "
-            f"keep up; run again with --time-scale {2 * k:g} (or auto)")
+    return (f"{'; '.join(said)} at time scale {k:g}: this machine could not keep up; "
+            f"run again with --time-scale {2 * k:g}")
 
 
 def round_trip(histogram: dict | None) -> dict | None:
@@ -235,7 +244,9 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "steps": plant.get("steps", 0),
         "late_steps": plant.get("late_steps", 0),
         "advice": time_advice(run.clock.time_scale if getattr(run, "clock", None) else 1.0, plant.get("steps", 0),
-                              plant.get("late_steps", 0)),
+                              plant.get("late_steps", 0),
+                              {wt: t["round_trip_samples"]["within_one"] for wt, t in turbines.items()
+                               if t["round_trip_samples"]}),
         "max_lateness_ms": plant.get("max_lateness_ms"),
         "converter_trips": plant.get("converter_trips", {}),
         "fallbacks": plant.get("fallbacks", {}),

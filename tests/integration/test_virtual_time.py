@@ -38,3 +38,22 @@ def test_dr_hold_and_recovery_are_in_simulated_time(tmp_path):
     assert rec["recovery_ms"] < 100  # simulated ms: the network looked 4 times faster than this machine's
     assert s["time"]["time_scale"] == 4
     assert_no_leftovers()
+
+
+def test_auto_time_scale_is_measured_before_t0_and_used(tmp_path):
+    s = run_scenario(SC / "smoke.yaml", tmp_path, "--time-scale", "auto")
+    cal = s["time"]["calibration"]
+    trials = cal["trials"]
+    # candidates tried from k = 1 upward; the run used the first that passed (or the largest tried)
+    assert [t["k"] for t in trials] == [1, 2, 4, 8, 16, 32, 64][: len(trials)]
+    assert all(not t["ok"] for t in trials[:-1])
+    assert s["time"]["time_scale"] == cal["time_scale"] == trials[-1]["k"]
+    assert cal["met"] == trials[-1]["ok"]
+    last = trials[-1]["per_turbine_wall"]["wt1_1"]
+    assert last["to_sdc_ms"]["n"] >= 200 and last["to_turbine_ms"]["n"] >= 200  # probes went through the switches
+    # then the run itself: control flows as without calibration, each answer counted by its round trip
+    p = s["turbines"]["wt1_1"]["packets"]
+    assert p["ctrl_rx"] >= 0.97 * (s["duration_s"] - 1.0) / s["step_s"]
+    rtt = s["turbines"]["wt1_1"]["round_trip_samples"]
+    assert sum(rtt["counts"].values()) == p["ctrl_rx"]
+    assert_no_leftovers()

@@ -163,6 +163,9 @@ def test_late_steps_advice_names_a_larger_time_scale():
     assert time_advice(2, 1000, 10) is None
     assert "--time-scale 4" in time_advice(2, 1000, 11)
     assert time_advice(1, 0, 0) is None
+    assert time_advice(4, 1000, 0, {"wt1_1": 0.995, "wt2_1": 0.99}) is None
+    said = time_advice(4, 1000, 0, {"wt1_1": 0.98, "wt3_1": 0.74})
+    assert "26.0% of wt3_1's answers" in said and "--time-scale 8" in said
 
 
 def test_scenario_time_scale_is_a_number_or_auto(tmp_path):
