@@ -10,14 +10,21 @@ import json
 
 from mininet.cli import CLI
 
+from scenarios import impairments
+from scenarios.cli_session import SessionCommands
 
-class TestbedCLI(CLI):
-    """Mininet CLI with ``status``, ``tables``, ``paths``, ``visc``, ``link`` and ``summary``."""
+
+class TestbedCLI(SessionCommands, CLI):
+    """Mininet CLI with ``status``, ``tables``, ``paths``, ``visc``, ``link`` and ``summary``; in an
+    interactive session also ``kill``, ``events``, ``watch`` and feedback (:mod:`scenarios.cli_session`)."""
 
     prompt = "sdvisc> "
 
-    def __init__(self, net, run=None, **kwargs):
+    def __init__(self, net, run=None, session=None, **kwargs):
         self.testbed = run
+        self.session = session
+        if session is not None:
+            session.cli = self
         super().__init__(net, **kwargs)
 
     def do_status(self, _line):
@@ -25,10 +32,14 @@ class TestbedCLI(CLI):
         st = self.testbed.plant_status() or {}
         sdn = self.testbed.sdn_state() or {}
         tables = sdn.get("tables", {})
-        print(f"t_sim={st.get('t_sim', 0):.2f}/{self.testbed.scenario.duration_s:.2f} s  late_steps={st.get('late_steps', 0)}"
+        duration = self.testbed.scenario.duration_s
+        print(f"t_sim={st.get('t_sim', 0):.2f} s (timeline {f'{duration:g} s' if duration else 'open-ended'})"
+              f"  late_steps={st.get('late_steps', 0)}"
               f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
         print(f"ViSC turbines: {', '.join(st.get('streaming', [])) or '-'}   active SDC: {tables.get('active_sdc')}")
         print(f"down links: {tables.get('down_links') or '-'}   openflow: {sdn.get('openflow', {})}")
+        for impaired in self.testbed.impairments.status_lines():
+            print(f"impaired link {impaired}")
         if not self.testbed.controllers_running():
             print("no SDN application is running: switches keep their flows, nothing reacts to failures")
         restarts = {n: len(r) for n, r in self.testbed.restarts.items() if r}
@@ -68,14 +79,23 @@ class TestbedCLI(CLI):
         if not self.testbed.command("owfcc.owfcc", {"cmd": f"visc_{parts[1]}", "wt": parts[0], "params": params}):
             print("the OWFCC is not running: request not sent")
             return
+        if self.session is not None:
+            self.testbed.record({"t": round(self.session.now(), 6), "source": "cli", "type": f"visc_{parts[1]}",
+                                 "wt": parts[0]})
         print(f"requested visc_{parts[1]} for {parts[0]}")
 
     def do_link(self, line):
         """link A B up|down: take the link between nodes A and B down or up (timed and recorded
-        like a timeline event, so its recovery appears in summary.json)."""
+        like a timeline event, so its recovery appears in summary.json).
+        link A B impair delay=5ms jitter=0.5ms loss=1% bw=100mbit: change the link's impairment
+        (the keys given; bare numbers are ms, a fraction, Mbit/s); link A B clear: remove it.
+        Only links with an impairment element (scenario links: or impairable: all) or netem."""
         parts = line.split()
+        if len(parts) >= 3 and parts[2] in ("impair", "clear"):
+            print(impairments.cli_command(self.testbed, parts[0], parts[1], parts[2:]))
+            return
         if len(parts) != 3 or parts[2] not in ("up", "down"):
-            print("usage: link A B up|down")
+            print("usage: link A B up|down  |  link A B impair delay=5ms loss=1% ...  |  link A B clear")
             return
         a, b, state = parts
         try:

@@ -102,12 +102,16 @@ class _Parts:
     model: str | None  # None: plant.model is invalid
     events: list[tuple[int, object]]  # (index in the timeline, validated event)
     turbines: list[tuple[tuple, str]]  # (key path, name) of sdn.visc_disabled and plant.record
+    links: list[tuple[tuple, str, str]]  # (key path, a, b) of links and impairable entries
 
     @classmethod
     def of_scenario(cls, sc: Scenario) -> _Parts:
         turbines = [(("sdn", "visc_disabled", j), n) for j, n in enumerate(sc.sdn.visc_disabled)]
         turbines += [(("plant", "record", j), n) for j, n in enumerate(sc.plant.record or [])]
-        return cls(sc.topology, sc.duration_s, sc.plant.model, list(enumerate(sc.timeline)), turbines)
+        links = [(("links", j), lk.a, lk.b) for j, lk in enumerate(sc.links)]
+        if isinstance(sc.impairable, list):
+            links += [(("impairable", j), lk.a, lk.b) for j, lk in enumerate(sc.impairable)]
+        return cls(sc.topology, sc.duration_s, sc.plant.model, list(enumerate(sc.timeline)), turbines, links)
 
     @classmethod
     def of_partial(cls, data: dict, bad: set[tuple]) -> _Parts:
@@ -134,7 +138,14 @@ class _Parts:
             if isinstance(names, list):
                 turbines += [((section, key, j), n) for j, n in enumerate(names)
                              if isinstance(n, str) and ok(section, key, j)]
-        return cls(topology, duration, model, events, turbines)
+        links = []
+        for section in ("links", "impairable"):
+            entries = data.get(section)
+            if isinstance(entries, list):
+                links += [((section, j), e["a"], e["b"]) for j, e in enumerate(entries)
+                          if isinstance(e, dict) and isinstance(e.get("a"), str) and isinstance(e.get("b"), str)
+                          and ok(section, j, "a") and ok(section, j, "b")]
+        return cls(topology, duration, model, events, turbines, links)
 
     def problems(self) -> list[tuple[tuple, str]]:
         out = []
@@ -166,6 +177,9 @@ class _Parts:
                 ends = {event.a, event.b}
                 if not ends <= switches | set(hosts) or (ends <= switches and frozenset(ends) not in links):
                     problems.append((("timeline", i), f"no link {event.a}-{event.b} in topology {topo.name}"))
+            if event.do in ("impair", "clear_impairments") and event.a is not None \
+                    and frozenset((event.a, event.b)) not in links:
+                problems.append((("timeline", i), f"no switch-to-switch link {event.a}-{event.b} in topology {topo.name}"))
             if event.do == "spoof_ak" and event.victim not in hosts:
                 problems.append((("timeline", i, "victim"), f"turbine {event.victim!r} is not in topology {topo.name}"))
             if event.do in ("kill", "fuzz", "spoof_ak") and event.host not in hosts:
@@ -173,6 +187,16 @@ class _Parts:
             if event.do == "fuzz":
                 problems += [(("timeline", i, "targets", j), f"no host {name!r} (or 'controller')")
                              for j, name in enumerate(event.targets) if name not in hosts and name != "controller"]
+        seen: dict[frozenset, tuple] = {}
+        for loc, a, b in self.links:
+            pair = frozenset((a, b))
+            if pair not in links:
+                problems.append((loc, f"no switch-to-switch link {a}-{b} in topology {topo.name} "
+                                      f"(links: {', '.join(sorted(lk['a'] + '-' + lk['b'] for lk in desc['links']))})"))
+            elif loc[0] == "links" and pair in seen:
+                problems.append((loc, f"link {a}-{b} is listed twice (also at links.{seen[pair][1]})"))
+            if loc[0] == "links":
+                seen.setdefault(pair, loc)
         for loc, name in self.turbines:
             if name not in hosts:
                 problems.append((loc, f"turbine {name!r} is not in topology {topo.name} ({topo.clusters}x{topo.turbines})"))

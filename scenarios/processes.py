@@ -179,7 +179,7 @@ class Processes:
                 self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
         # the SDN app first, so the end of the plant's packets is not mistaken for a failure
         order = (["owfcc.owfcc", *CONTROLLERS, "plant"] + [n for n in self.procs if n.endswith(".sdc")]
-                 + [n for n in self.procs if n.endswith(".tcpdump")])
+                 + [n for n in self.procs if n.endswith((".tcpdump", ".impair"))])
         for name in order:
             proc = self.procs.get(name)
             if proc is None or proc.poll() is not None:

@@ -22,6 +22,8 @@ from mininet.node import RemoteController
 
 from scenarios import configs
 from scenarios.calibrate import Calibration, calibration_line
+from scenarios.impairments import Impairments
+from scenarios.live import Session, check_open_ended
 from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
@@ -77,7 +79,9 @@ class Run:
         self.datapath = default_datapath()
         self.links_down: set[tuple[str, str]] = set()
         self.processes = Processes(out_dir, self.record)
+        self.session = None  # an interactive session (scenarios.live.Session): runs until the user ends it
         self.timeline = Timeline(self)
+        self.impairments = Impairments(scenario, out_dir)  # link delay/jitter/loss/bandwidth (netem or elements)
 
     # what summary.json reports about the processes
     procs = property(lambda self: self.processes.procs)
@@ -113,7 +117,7 @@ class Run:
 
         setLogLevel("warning")
         sc = self.scenario
-        topo = topos[sc.topology.name](**sc.topology.params())
+        topo = self.impairments.build_topology(topos[sc.topology.name], sc.topology.params())
         self.desc = describe(topo)
         ports = [_free_port(), _free_port()]
         if not self.auto_time_scale:
@@ -135,10 +139,12 @@ class Run:
         self.net.staticArp()
         for host in self.net.hosts:
             host.cmd(f"arp -s {CONTROLLER_VIP} {CONTROLLER_VMAC}")
+        self.impairments.start(self)
         if self.auto_time_scale:  # measured before the SDN app starts (its config carries the clock)
             self._say("sdvisc: time_scale auto: probing the plant, the SDC and the network at k = 1, 2, 4, …")
             self.calibration = Calibration(self).measure()
             self.set_time_scale(self.calibration["time_scale"])
+            self.impairments.set_clock(self.clock_settings)
             self._say(calibration_line(self.calibration))
             self._start_sdn_apps(ports)  # the switches reconnect within their max_backoff (1 s)
         self._wait_switches()
@@ -225,7 +231,8 @@ class Run:
             self.processes.wait_ready(f"{host}.sdc", f"sdc{sdc_id}_ready.json", f"SDC on {host}")
         time.sleep(0.3)  # let the other services bind their sockets
         pids = {n: self.net.get(n).pid for n, h in hosts.items() if h["role"] == "turbine"}
-        cfg = write_config(configs.plant_config(sc, self.desc, out, pids, self.clock_settings), self.out / "plant_config.json")
+        cfg = write_config(configs.plant_config(sc, self.desc, out, pids, self.clock_settings, open_ended=self.session is not None),
+                           self.out / "plant_config.json")
         self.processes.start("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
         # the plant sets t = 0 (wall time) once its model is built and warmed up
         self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
@@ -250,8 +257,8 @@ class Run:
 
         Each end is set with one ioctl in its namespace (switch ends: the root namespace); a veth
         whose peer is down has no carrier, so the first end takes the link down at once."""
-        links = self.net.linksBetween(self.net.get(a), self.net.get(b))
-        if not links:
+        ends = self.impairments.link_ends(self.net, a, b)  # with an impairment element: its interfaces too
+        if not ends:
             raise RunError(f"no link {a}-{b}")
         state = "up" if up else "down"
         if up:
@@ -259,7 +266,7 @@ class Run:
         else:
             self.links_down.add(tuple(sorted((a, b))))
         t_first = None
-        for intf in (links[0].intf1, links[0].intf2):
+        for intf in ends:
             pid = None if intf.node in self.net.switches else intf.node.pid  # switch ends: root namespace
             try:
                 t = set_link_up(intf.name, up, pid)
@@ -274,18 +281,18 @@ class Run:
         tty = sys.stdout.isatty() and not self.quiet
         last_line = 0.0
         plant = self.procs["plant"]
-        end = self.t0 + self.scenario.duration_s
+        end = self.t0 + self.scenario.duration_s if self.session is None else float("inf")  # a session: until exit
         while plant.poll() is None:
             now = self.clock.now()
             if not self.cpu_at_start and now >= self.t0:
                 self.cpu_at_start = self.processes.cpu_seconds()  # from t = 0: start-up compiles left out
-            if now >= end:
+            if now >= end or (self.session is not None and self.session.ending(now - self.t0)):
                 self.processes.stop_controllers()  # the scenario is over: no decisions on the plant's last packets
             self.processes.supervise(round(now - self.t0, 6))
             while pending and now >= self.t0 + pending[0].t:
                 event = pending.pop(0)
                 self.timeline.dispatch(event, now - self.t0)
-            if now - last_line >= (0.2 if tty else 1.0):
+            if self.session is None and now - last_line >= (0.2 if tty else 1.0):  # a session: `status`
                 last_line = now
                 self._progress(tty)
             wait = self.clock.wall_s(self.t0 + pending[0].t - self.clock.now()) if pending else 0.02
@@ -295,7 +302,8 @@ class Run:
         self.wall_ended = time.time()
         self.cpu_used = {n: round(c - self.cpu_at_start[n], 4) for n, c in self.processes.cpu_seconds().items()
                          if n in self.cpu_at_start}
-        self._progress(tty, final=True)
+        if self.session is None:
+            self._progress(tty, final=True)
         self.finished.set()
 
     def _progress(self, tty: bool, final: bool = False) -> None:
@@ -317,6 +325,7 @@ class Run:
     # ------------------------------------------------------------------ teardown
     def teardown(self) -> None:
         try:
+            self.impairments.finish()
             self.processes.stop_all()
         finally:
             if self.net is not None:
@@ -328,8 +337,11 @@ class Run:
 
 
 def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, quiet: bool = False,
-                 source: str | None = None) -> dict:
-    """Run ``scenario``; returns the summary (also written to ``out_dir/summary.json``)."""
+                 source: str | None = None, cli_duration_s: float | None = None, web_port: int | None = None) -> dict:
+    """Run ``scenario``; returns the summary (also written to ``out_dir/summary.json``). With ``cli``, an
+    interactive session (:mod:`scenarios.live`) that ends on ``exit`` or at ``cli_duration_s``;
+    ``web_port``: its live view (:mod:`scenarios.web`)."""
+    check_open_ended(scenario.duration_s, cli)
     if os.geteuid() != 0:
         raise RunError("sdvisc run needs root (Mininet creates namespaces, veths and bridges)")
     out = Path(out_dir)
@@ -343,18 +355,14 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
         cleanup.clean()
     previous = {s: signal.signal(s, _raise_interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
     run = Run(scenario, out, quiet=quiet)
+    if cli:
+        run.session = Session(run, cli_duration_s=cli_duration_s, web_port=web_port)
     completed = False
     try:
         run.build()
         run.start_services()
         if cli:
-            from scenarios.cli_ext import TestbedCLI
-
-            player = threading.Thread(target=run.play, daemon=True)
-            player.start()
-            TestbedCLI(run.net, run=run)
-            player.join(timeout=0.1)
-            completed = run.finished.is_set()
+            completed = run.session.interact()
         else:
             run.play()
             completed = True
@@ -364,6 +372,8 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            if run.session is not None:
+                run.session.settle_duration()  # summary.json covers the whole session
             summary = build_summary(run, completed=completed, source=source)
             (out / "summary.json").write_text(json.dumps(summary, indent=1))
     return summary

@@ -82,6 +82,25 @@ class CaptureSpec(Strict):
     hosts: list[str] = Field(default_factory=lambda: ["sdc1"])
 
 
+class LinkRef(Strict):
+    a: str = Field(description="a switch at one end of a switch-to-switch link")
+    b: str = Field(description="the switch at the other end")
+
+
+_DELAY = {"ge": 0, "le": 10_000}
+
+
+class LinkImpairmentSpec(LinkRef):
+    """Delay, jitter, loss and bandwidth of one switch-to-switch link, both directions
+    (docs/scenarios.md "Impairments"); any subset of the keys."""
+
+    delay_ms: float = Field(0.0, **_DELAY, description="one-way delay added in each direction (simulated ms)")
+    jitter_ms: float = Field(0.0, **_DELAY, description="uniform jitter: each frame delay ± jitter (never < 0)")
+    loss: float = Field(0.0, ge=0, le=1, description="probability that a frame is dropped")
+    bw_mbps: float | None = Field(None, gt=0, le=100_000, description="bandwidth (Mbit/s of simulated time)")
+    seed: int = Field(1, description="loss and jitter draws")
+
+
 class _Event(Strict):
     t: float = Field(ge=0, description="seconds from the scenario start")
 
@@ -164,6 +183,39 @@ class SpoofAk(_Event):
     duration_s: float = Field(1.0, gt=0, le=3600)
 
 
+class Impair(_Event):
+    """Change the impairment of link ``a``–``b`` (listed in ``links`` or not): the keys given are
+    set, the others kept; ``bw_mbps: 0`` removes the bandwidth limit."""
+
+    do: Literal["impair"]
+    a: str
+    b: str
+    delay_ms: float | None = Field(None, **_DELAY)
+    jitter_ms: float | None = Field(None, **_DELAY)
+    loss: float | None = Field(None, ge=0, le=1)
+    bw_mbps: float | None = Field(None, ge=0, le=100_000)
+
+    @model_validator(mode="after")
+    def _something_to_change(self):
+        if all(getattr(self, k) is None for k in ("delay_ms", "jitter_ms", "loss", "bw_mbps")):
+            raise ValueError("impair needs at least one of delay_ms, jitter_ms, loss, bw_mbps")
+        return self
+
+
+class ClearImpairments(_Event):
+    """Remove the impairment of link ``a``–``b``, or (without ``a``, ``b``) of every link."""
+
+    do: Literal["clear_impairments"]
+    a: str | None = None
+    b: str | None = None
+
+    @model_validator(mode="after")
+    def _both_ends_or_none(self):
+        if (self.a is None) != (self.b is None):
+            raise ValueError("give both a and b (one link) or neither (every link)")
+        return self
+
+
 class SetParam(_Event):
     do: Literal["set"]
     param: str = Field(description="a plant parameter with a one-number set_<param> method of plant.model, e.g. "
@@ -187,7 +239,7 @@ class Scr(_Event):
 
 
 Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | PathLinkDown | RestoreLinks | Kill | SetParam
-                  | LoadStep | Fault | Scr | Fuzz | SpoofAk,
+                  | LoadStep | Fault | Scr | Fuzz | SpoofAk | Impair | ClearImpairments,
                   Field(discriminator="do")]
 EVENT_KINDS = tuple(get_args(cls.model_fields["do"].annotation)[0] for cls in get_args(get_args(Event)[0]))
 
@@ -206,6 +258,10 @@ class Scenario(Strict):
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)
     capture: CaptureSpec = Field(default_factory=CaptureSpec)
+    links: list[LinkImpairmentSpec] = Field(default_factory=list, description="impaired links from t = 0")
+    impairable: Literal["listed", "all"] | list[LinkRef] = Field(
+        "listed", description="links that get an impairment element (without netem): those in links and in "
+                              "impair actions (listed), every switch-to-switch link (all), or these too")
     timeline: list[Event] = Field(default_factory=list, description="each t <= duration_s (checked by the loader)")
 
     def turbines_named(self) -> list[str]:

@@ -14,6 +14,8 @@ import platform
 import time
 from pathlib import Path
 
+from scenarios.impairments import summary_section as impairments_section
+
 SUMMARY_VERSION = 1
 
 
@@ -271,6 +273,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "wire_rejected": {"plant": plant.get("rx_wire", {}), **{s: d.get("rx_wire", {}) for s, d in sdcs.items()},
                           "sdn_app": sdn.get("wire", {})},
         "sdc": {s: {"role": d.get("role"), "heartbeats_tx": d.get("heartbeats_tx")} for s, d in sdcs.items()},
+        "impairments": impairments_section(run),
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
     }

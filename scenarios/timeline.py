@@ -1,5 +1,5 @@
-"""Carrying out a scenario's timeline actions: requests through the OWFCC, link failures, kills and
-crashes, plant commands, hostile traffic. Each action is recorded (``events.jsonl``, source
+"""Carrying out a scenario's timeline actions: requests through the OWFCC, link failures and
+impairments, kills and crashes, plant commands, hostile traffic. Each action is recorded (``events.jsonl``, source
 ``timeline``) with what actually happened (e.g. ``t_effective`` of a link failure)."""
 
 from __future__ import annotations
@@ -51,6 +51,14 @@ class Timeline:
             record["out"] = self.start_fuzzer(event, sum(e["type"] == kind for e in run.timeline_events))
         elif kind in PLANT_COMMANDS:
             run.processes.send("plant", PLANT_COMMANDS[kind](event))
+        elif kind == "impair":
+            values = {k: getattr(event, k) for k in ("delay_ms", "jitter_ms", "loss", "bw_mbps")}
+            record["now"] = run.impairments.set(event.a, event.b, round(t, 6), "timeline", **values).as_dict()
+        elif kind == "clear_impairments":
+            if event.a is None:
+                record["links"] = run.impairments.clear_all(round(t, 6), "timeline")
+            else:
+                run.impairments.set(event.a, event.b, round(t, 6), "timeline", clear=True)
         elif kind == "fault":
             run.processes.send("plant", {"type": "fault", "on": True})
             timer = threading.Timer(max(0.0, run.clock.wall_s(run.t0 + t + event.duration_s - run.clock.now())),

@@ -11,8 +11,9 @@ from __future__ import annotations
 
 import os
 
-from mininet.node import OVSBridge, OVSSwitch
+from mininet.node import Host, OVSBridge, OVSSwitch
 from mininet.topo import Topo
+from mininet.util import naturalSeq
 
 NET_PREFIX_LEN = 16
 SERVICE_HOSTS = {
@@ -68,8 +69,47 @@ class L2Switch(OVSBridge):
         super().__init__(name, **params)
 
 
+class ImpairmentHost(Host):
+    """The host of an impairment element (:mod:`sdvisc.impair_node`): no IP address, no IPv6 and
+    no ARP entries of its own, so that it never sends a frame of its own into the link."""
+
+    def startShell(self, *args, **kwargs):
+        super().startShell(*args, **kwargs)
+        # before any interface is moved in: interfaces get this namespace's default (no IPv6)
+        self.cmd("sysctl -qw net.ipv6.conf.all.disable_ipv6=1 net.ipv6.conf.default.disable_ipv6=1")
+
+    def setARP(self, ip, mac):
+        return ""
+
+
+def element_name(index: int) -> str:
+    """Host name of the ``index``-th impairment element (from 1); short, as interface names are
+    limited to 15 characters (``imp12-eth1``)."""
+    return f"imp{index}"
+
+
 class TestbedTopo(Topo):
-    """Base for the testbed topologies: helpers that add hosts with stable addresses."""
+    """Base for the testbed topologies: helpers that add hosts with stable addresses.
+
+    ``impaired``: switch-to-switch links ``(a, b)`` that get an impairment element: ``addLink(a, b)``
+    then adds a host ``imp<k>`` (role ``impairment``) with interface ``-eth0`` toward ``a`` and
+    ``-eth1`` toward ``b``, and links ``a – imp<k> – b``; the switches' port numbers stay those
+    of the direct link, and :func:`describe` still shows one link ``a–b`` (with ``element``).
+    """
+
+    def __init__(self, *args, impaired=(), **params):
+        self.impaired = {frozenset(link) for link in impaired}
+        self.elements: dict[str, tuple[str, str]] = {}  # element host -> (a, b)
+        super().__init__(*args, **params)
+
+    def addLink(self, node1, node2, port1=None, port2=None, key=None, **opts):  # noqa: N802 - Mininet's name
+        if frozenset((node1, node2)) not in self.impaired:
+            return super().addLink(node1, node2, port1, port2, key, **opts)
+        element = self.addHost(element_name(len(self.elements) + 1), cls=ImpairmentHost, ip=None,
+                               role="impairment", a=node1, b=node2)
+        self.elements[element] = (node1, node2)
+        super().addLink(node1, element, port1, 0, **opts)
+        return super().addLink(element, node2, 1, port2, **opts)
 
     def add_service_host(self, name: str) -> str:
         ip, mac = SERVICE_HOSTS[name]
@@ -96,7 +136,9 @@ def describe(topo: Topo) -> dict:
 
     Returns ``{"switches": {name: {"dpid", "openflow"}}, "hosts": {name: {"ip", "mac", "role",
     "switch", "port", ...}}, "links": [{"a", "a_port", "b", "b_port"}]}`` where ``links`` lists
-    switch-to-switch links only and host entries name the switch port they hang on.
+    switch-to-switch links only and host entries name the switch port they hang on. A link with
+    an impairment element is one link ``a–b`` between the switches' ports toward the element
+    (plus ``"element": name``); the element is not a host of the description.
     """
     switches = {}
     for name in topo.switches():
@@ -104,6 +146,7 @@ def describe(topo: Topo) -> dict:
         switches[name] = {"dpid": int(info["dpid"], 16), "openflow": bool(info.get("openflow", True))}
     hosts = {}
     links = []
+    element_ports: dict[str, dict[str, int]] = {}  # element -> {switch: the switch's port toward it}
     for a, b, info in topo.links(sort=True, withKeys=False, withInfo=True):
         a, b = info["node1"], info["node2"]
         pa, pb = info["port1"], info["port2"]
@@ -112,6 +155,9 @@ def describe(topo: Topo) -> dict:
             continue
         host, sw, sw_port = (a, b, pb) if b in switches else (b, a, pa)
         hinfo = topo.nodeInfo(host)
+        if hinfo.get("role") == "impairment":
+            element_ports.setdefault(host, {})[sw] = sw_port
+            continue
         entry = {
             "ip": hinfo["ip"].split("/")[0],
             "mac": hinfo["mac"],
@@ -123,4 +169,9 @@ def describe(topo: Topo) -> dict:
             entry["cluster"] = hinfo["cluster"]
             entry["number"] = hinfo["number"]
         hosts[host] = entry
+    for element, ports in element_ports.items():
+        info = topo.nodeInfo(element)
+        a, b = info["a"], info["b"]
+        links.append({"a": a, "a_port": ports[a], "b": b, "b_port": ports[b], "element": element})
+    links.sort(key=lambda link: naturalSeq((link["a"], link["b"])))  # the order without elements
     return {"switches": switches, "hosts": hosts, "links": links}
