@@ -51,11 +51,16 @@ def _cmd_run(args) -> int:
         scenario.capture.pcap = True
     if args.time_scale is not None:
         scenario.time_scale = args.time_scale
+    problem = _session_options(args, scenario)
+    if problem:
+        print(f"sdvisc: {problem}", file=sys.stderr)
+        return 1
     scaled = (" at the time scale calibrated before t = 0" if scenario.time_scale == "auto" else
               f" at time scale {scenario.time_scale:g} (virtual time)" if scenario.time_scale != 1 else "")
     print(f"sdvisc: running {path} -> {out}/{scaled}")
     try:
-        summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path))
+        summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path),
+                               cli_duration_s=args.cli_duration, web_port=args.web)
     except RunError as exc:
         print(f"sdvisc: {exc}", file=sys.stderr)
         return 2
@@ -64,6 +69,30 @@ def _cmd_run(args) -> int:
         return 130
     _print_result(summary, out)
     return 0
+
+
+def _session_options(args, scenario) -> str | None:
+    """Apply --duration; the problem with --duration, --cli-duration or --web, if any."""
+    if args.duration is not None:
+        scenario.duration_s = None if args.duration == float("inf") else args.duration
+        late = [e.t for e in scenario.timeline if scenario.duration_s is not None and e.t > scenario.duration_s]
+        if late:
+            return f"--duration {args.duration:g}: the timeline has actions at t = {', '.join(f'{t:g}' for t in late)} s"
+    if scenario.duration_s is None and not args.cli:
+        return "an open-ended run (duration_s: null or --duration inf) needs --cli: `exit` or --cli-duration ends it"
+    if (args.cli_duration is not None or args.web is not None) and not args.cli:
+        return "--cli-duration and --web are options of an interactive session (--cli)"
+    return None
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a number of seconds (or inf), not {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError("must be > 0")
+    return value
 
 
 def _print_result(summary: dict, out: Path) -> None:
@@ -112,7 +141,14 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("run", help="run a scenario on Mininet + Open vSwitch + os-ken")
     p.add_argument("scenario", nargs="?", help=f"scenario YAML (default {DEFAULT_SCENARIO.name})")
     p.add_argument("--out", help="output directory (default results/<scenario name>)")
-    p.add_argument("--cli", action="store_true", help="open the Mininet CLI while the scenario runs")
+    p.add_argument("--cli", action="store_true", help="interactive session: the Mininet CLI while the scenario runs; "
+                   "the farm stays live after the timeline until you type exit (feedback on every action)")
+    p.add_argument("--cli-duration", type=_seconds, default=None, metavar="S",
+                   help="with --cli: end the session at t = S (simulated seconds), or at exit if earlier")
+    p.add_argument("--duration", type=_seconds, default=None, metavar="S|inf",
+                   help="override the scenario's duration_s (inf: open-ended, only with --cli)")
+    p.add_argument("--web", type=int, nargs="?", const=8765, default=None, metavar="PORT",
+                   help="with --cli: live view in a browser at http://127.0.0.1:PORT/ (default 8765; this machine only)")
     p.add_argument("--pcap", action="store_true", help="capture on the SDC host into the output directory")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--time-scale", type=_time_scale, default=None, metavar="K|auto",
