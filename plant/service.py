@@ -65,6 +65,8 @@ class Endpoint:
     loss_reported: bool = False  # an AK has said that the current loss lasted report_loss_after_s
     ctrl_gaps: list = field(default_factory=list)
     last_v_ref: complex | None = None
+    last_delta: float = float("nan")  # the newest applied CTRL's virtual rotor angle (rad) and
+    last_e_mag: float = float("nan")  # internal EMF magnitude (p.u.), for timeseries.csv
     backup_seen: bool = False
     takeover_jump: float | None = None
     # CTRL answers by round trip in samples: [1, 2, …, RTT_BINS-1, more] (1 = applied in the step
@@ -207,6 +209,7 @@ class PlantService:
             ep.backup_seen = True
             ep.takeover_jump = abs(v_ref - ep.last_v_ref) if ep.last_v_ref is not None else None
         ep.last_v_ref = v_ref
+        ep.last_delta, ep.last_e_mag = float(msg["delta"]), float(msg["e_mag"])
         self.live.on_ctrl(ep, now)
         ep.last_ctrl_wall = now
         ep.loss_reported = False
