@@ -5,6 +5,7 @@ longer, never shorter)."""
 from __future__ import annotations
 
 import time
+from types import SimpleNamespace
 
 import pytest
 
@@ -47,3 +48,48 @@ def test_the_manual_clock_moves_only_when_told():
     c.advance(1.0)
     assert c.now() == 11.25 and c.slept == [0.25]
     assert c.sleep_until(12.0) == 12.0 and c.sleep_until(11.0) == 12.0
+
+
+@pytest.mark.parametrize("k", [8.0, 32.0])
+def test_sdn_timers_take_the_same_simulated_time_decisions_at_any_time_scale(monkeypatch, k):
+    """The SDN app reads its clock for every packet and tick: a DR after an AK loss, with the SDC's
+    heartbeats going on, is decided at the same simulated instants at k = 1 and at k."""
+    from sdn_app.app import TICK_S
+    from sdn_app.logic import Controller
+    from sdvisc import clock as clock_module
+    from tests.unit.test_sdn_logic import make_config
+    from tests.unit.test_sdn_resilience import ak, heartbeat, visc_on
+
+    def decisions(time_scale: float) -> list:
+        wall = {"now": 1_700_000_000.0}
+        monkeypatch.setattr(clock_module, "time", SimpleNamespace(time=lambda: wall["now"]))
+        clock = Clock(time_scale, epoch=wall["now"])
+        ctl = Controller(make_config(backup_sdc=None), now=clock.now())
+        # what arrives, in simulated seconds from the epoch: AKs every 10 ms (loss from 1.508 s),
+        # heartbeats every 10 ms, ticks every TICK_S
+        arrivals = [(1.0, "visc_on", None)]
+        arrivals += [(0.5 + 0.010 * n + 0.0003, "heartbeat", n + 1) for n in range(150)]
+        arrivals += [(1.1 + 0.010 * n + 0.0007, "ak", n + 1) for n in range(90)]
+        arrivals += [(0.5 + TICK_S * n, "tick", None) for n in range(int(1.5 / TICK_S))]
+        for t, kind, seq in sorted(arrivals, key=lambda a: a[0]):
+            wall["now"] = clock.epoch + t * time_scale  # the wall time at which it happens
+            now = clock.now()
+            if kind == "visc_on":
+                visc_on(ctl, now)
+            elif kind == "heartbeat":
+                heartbeat(ctl, "sdc1", seq, now)
+            elif kind == "ak":
+                t_sim = now - clock.epoch
+                lost = 1.508 <= t_sim < 1.565  # control lost from 1.508 s until the new path carries it
+                ak(ctl, seq, int(not lost), t_sim - 1.508 if lost else 0.0005, now)
+            else:
+                ctl.tick(now)
+        return [{key: round(v - clock.epoch, 6) if key.startswith("t_") and isinstance(v, float) else v
+                 for key, v in e.items()} for e in ctl.take_events()]
+
+    real_time, scaled = decisions(1.0), decisions(k)
+    (dr,) = [e for e in real_time if e["type"] == "dr"]
+    assert dr["wt"] == "wt1_1" and dr["t_loss"] == pytest.approx(1.508, abs=0.001)
+    # the hold (40 ms), confirmed by the next AK (every 10 ms here) at the next tick: simulated seconds
+    assert 0.040 <= dr["t_detect"] - dr["t_loss"] <= 0.040 + 0.010 + TICK_S
+    assert scaled == real_time
