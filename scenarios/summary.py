@@ -4,7 +4,9 @@
 ``late_steps``, ``turbines`` (per turbine ``packets`` with ``meas_tx``, ``meas_rx_sdc``,
 ``ctrl_tx_sdc``, ``ctrl_rx``, ``ak_tx`` and the measured one-way delays), ``events`` (each ``t``,
 ``type`` and details), ``recoveries`` (each ``wt``, ``cause``, ``t_fault``, ``t_detect``,
-``t_restored``, ``recovery_ms``) and ``openflow`` (controller↔switch message counts).
+``t_restored``, ``recovery_ms``), ``openflow`` (controller↔switch message counts) and
+``impairments`` (impaired links: configured values over time, what each element measured;
+:mod:`scenarios.impairments`).
 """
 
 from __future__ import annotations

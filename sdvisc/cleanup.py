@@ -1,7 +1,7 @@
 """Remove everything a testbed run can leave behind (``sdvisc clean``; also run on every exit path).
 
-Targets: the project's processes (SDN app, plant, SDC, OWFCC, tcpdump started by a run, Mininet
-host shells), Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
+Targets: the project's processes (SDN app, plant, SDC, OWFCC, impairment elements, tcpdump started
+by a run, Mininet host shells), Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
 the testbed's switches), and veth/tap devices named after them (``s1-eth2``, ``sub1``…). ``mn -c``
 misses the userspace datapath's leftovers; this does not.
 """
