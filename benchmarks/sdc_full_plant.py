@@ -5,6 +5,12 @@ Prints one JSON object: per variant (delay in samples, dtype, method) the RMS de
 hardware-dependent ViSC and RMS / range of the HD trace [%] of |V_pcc|, Q, delta and E (worst of
 the four ViSC turbines), and writes a figure (default docs/figures/sdc_full_plant_fault.png).
 See plant/cosim.py for the set-up.
+
+    flock /tmp/sdvisc-net.lock .venv/bin/python benchmarks/sdc_full_plant.py --network [--time-scale K|auto] [--runs N]
+
+runs the same case through the network (scenarios/fault_4visc_network.yaml, needs root) and compares
+it with the offline co-simulation under the run's own conditions and with the HD ViSC
+(benchmarks/sdc_full_plant_network.py; figure default docs/figures/sdc_full_plant_network.png).
 """
 
 from __future__ import annotations
@@ -27,8 +33,21 @@ VARIANTS = [("tustin", "float64", 0), ("tustin", "float64", 1), ("tustin", "floa
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--figure", default=str(Path(__file__).resolve().parents[1] / "docs/figures/sdc_full_plant_fault.png"))
+    ap.add_argument("--figure", default=None, help="figure path ('' for none)")
+    ap.add_argument("--network", action="store_true", help="run the case through the network (root) and compare")
+    ap.add_argument("--time-scale", default="auto", metavar="K|auto", help="with --network: virtual time scale")
+    ap.add_argument("--runs", type=int, default=1, help="with --network: how many network runs")
+    ap.add_argument("--out", type=Path, default=None, help="with --network: directory for the runs' output")
     args = ap.parse_args()
+    docs = Path(__file__).resolve().parents[1] / "docs/figures"
+    if args.network:
+        from sdc_full_plant_network import main_network  # noqa: PLC0415 - needs scenarios (root) only here
+
+        scale = args.time_scale if args.time_scale == "auto" else float(args.time_scale)
+        figure = str(docs / "sdc_full_plant_network.png") if args.figure is None else args.figure or None
+        print(json.dumps(main_network(scale, args.runs, args.out, figure), indent=1))
+        return
+    args.figure = str(docs / "sdc_full_plant_fault.png") if args.figure is None else args.figure
     case = FaultCase()
     hd = run_hd(case)
     runs = {f"{m}_{d}_delay{k}": run_sdc(case, method=m, dtype=np.dtype(d), delay_samples=k) for m, d, k in VARIANTS}
