@@ -2,7 +2,8 @@
 
 Runs the smoke scenario (wt1_1 as SDViSC: 1 MEAS + 1 CTRL every Ts = 0.67 ms, i.e. 2 × 1500
 frames/s, all across s1–s3) with an impairment element on s1–s3, once per configured delay (no
-jitter, ``--loss`` loss), plus once without the element (the baseline of the end-to-end delays).
+jitter, ``--loss`` loss, a seed of its own), plus once without the element (the baseline of the
+end-to-end delays); delay 0 shows what the element itself adds.
 Prints one JSON object; per delay:
 
 * ``error_ms``: the element's added delay (departure − kernel receive stamp) minus the configured
@@ -18,7 +19,7 @@ The SDN app's DR hold is raised to 0.5 s so that the 40 ms round trip of the 20 
 reroute the turbine around the element before its first control packet arrives. The machine is
 shared: ``machine.load`` before and after says how busy it was.
 
-    .venv/bin/python benchmarks/impairments.py [--delays 1,5,20] [--loss 0.01] [--duration 8] [--time-scale 1]
+    .venv/bin/python benchmarks/impairments.py [--delays 0,1,5,20] [--loss 0.01] [--duration 8] [--time-scale 1]
 """
 
 from __future__ import annotations
@@ -76,7 +77,7 @@ def measure(summary: dict, baseline: dict, delay_ms: float, loss: float) -> dict
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--delays", default="1,5,20", help="configured one-way delays, ms")
+    parser.add_argument("--delays", default="0,1,5,20", help="configured one-way delays, ms (0: the element's own cost)")
     parser.add_argument("--loss", type=float, default=0.01)
     parser.add_argument("--duration", type=float, default=8.0, help="simulated s per run (ViSC from 1 s)")
     parser.add_argument("--time-scale", type=float, default=1.0)
@@ -88,8 +89,8 @@ def main() -> None:
     extra = ("--time-scale", f"{args.time_scale:g}")
     baseline = run_dict(scenario("impair_bench_baseline", args.duration, [], args.time_scale), work, *extra)
     results = []
-    for delay in (float(d) for d in args.delays.split(",")):
-        link = {"a": "s1", "b": "s3", "delay_ms": delay, "loss": args.loss}
+    for index, delay in enumerate(float(d) for d in args.delays.split(",")):
+        link = {"a": "s1", "b": "s3", "delay_ms": delay, "loss": args.loss, "seed": 1 + index}  # independent draws
         name = f"impair_bench_{delay:g}ms".replace(".", "_")
         summary = run_dict(scenario(name, args.duration, [link], args.time_scale), work, *extra)
         results.append(measure(summary, baseline, delay, args.loss))

@@ -220,11 +220,15 @@ class Impairments:
 
     def _netem(self, pair: frozenset) -> None:
         link, imp = self.links[pair], self.current[pair]
-        for intf in self.link_ends(self.run.net, link["a"], link["b"])[::3]:  # the two switch ports
+        for intf in self._switch_ports(link):  # the two switch ports
             args = netem_args(intf.name, imp, self.run.clock.time_scale)
             res = subprocess.run(args, capture_output=True, text=True, check=False)
             if res.returncode != 0 and not imp.clear:
                 raise RunError(f"{' '.join(args)} failed: {res.stderr.strip()}")
+
+    def _switch_ports(self, link: dict) -> list:
+        ends = self.link_ends(self.run.net, link["a"], link["b"])
+        return [ends[0], ends[-1]]
 
     # ------------------------------------------------------------------ link failures
     def link_ends(self, net, a: str, b: str) -> list:
@@ -266,12 +270,12 @@ class Impairments:
             return
         for pair, link in self.links.items():
             stats = {}
-            for intf in self.link_ends(self.run.net, link["a"], link["b"])[::3]:
-                out = subprocess.run(["tc", "-s", "-j", "qdisc", "show", "dev", intf.name], capture_output=True, text=True,
-                                     check=False).stdout
-                try:
+            for intf in self._switch_ports(link):
+                try:  # teardown goes on whatever tc says
+                    out = subprocess.run(["tc", "-s", "-j", "qdisc", "show", "dev", intf.name], capture_output=True,
+                                         text=True, check=False, timeout=10).stdout
                     qdisc = next((q for q in json.loads(out) if q.get("kind") == "netem"), {})
-                except ValueError:
+                except (OSError, ValueError, subprocess.TimeoutExpired):
                     qdisc = {}
                 stats[intf.name] = {"packets": qdisc.get("packets"), "drops": qdisc.get("drops")}
             self.netem_stats[pair] = stats

@@ -290,6 +290,7 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         pass
     finally:
+        signal.signal(signal.SIGTERM, signal.SIG_IGN)  # stdin closed and SIGTERM come together: write once
         element.phase.t_to = element.clock.now()
         element.write_status(final=True)
     return 0
