@@ -84,15 +84,12 @@ def stats(values: list[float]) -> dict:
                 "max": round(float(v.max()), 3), "min": round(float(v.min()), 3)} if len(v) else {})}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeat", type=int, default=20)
-    ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
-    args = ap.parse_args()
+def measure(repeat: int = 20, load: int = 0) -> dict:
+    """Open vSwitch's own flow-mod and fast-failover times on this machine (see the module docstring)."""
     cleanup.clean()
     net = Mininet(switch=TestbedSwitch, controller=None, autoSetMacs=True, build=False)
     s1 = net.addSwitch("s1")
-    hosts = [net.addHost(f"h{k}") for k in range(1, 4 + 2 * args.load)]
+    hosts = [net.addHost(f"h{k}") for k in range(1, 4 + 2 * load)]
     for h in hosts:
         net.addLink(h, s1)
     procs = []
@@ -103,7 +100,7 @@ def main() -> None:
             h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
         port = {h.name: s1.ports[s1.connectionsTo(h)[0][0]] for h in hosts}
         ofctl("add-flow", "s1", "priority=1,arp,actions=FLOOD")
-        for k in range(args.load):  # background streams h(4+2k) -> h(5+2k)
+        for k in range(load):  # background streams h(4+2k) -> h(5+2k)
             a, b = hosts[3 + 2 * k], hosts[4 + 2 * k]
             ofctl("add-flow", "s1", f"priority=10,in_port={port[a.name]},udp,actions=output:{port[b.name]}")
             procs.append(a.popen([sys.executable, "-c", SENDER, b.IP(), "1500"]))
@@ -114,7 +111,7 @@ def main() -> None:
         time.sleep(0.5)
         flow = f"in_port={port['h1']},udp"
         flow_mod, ff = [], []
-        for _ in range(args.repeat):
+        for _ in range(repeat):
             ofctl("add-flow", "s1", f"priority=20,{flow},actions=output:{port['h2']}")
             time.sleep(0.3)
             ofctl("mod-flows", "s1", f"{flow},actions=output:{port['h3']}")
@@ -126,7 +123,7 @@ def main() -> None:
                                  f"bucket=watch_port:{port['h3']},output:{port['h3']}")
         ofctl("add-flow", "s1", f"priority=20,{flow},actions=group:1")
         sw_end = s1.connectionsTo(h2)[0][0].name
-        for _ in range(args.repeat):
+        for _ in range(repeat):
             set_link_up(sw_end, True)
             time.sleep(0.5)
             first_arrival(receiver, 0.05)  # drain
@@ -136,14 +133,22 @@ def main() -> None:
         result = {"benchmark": "ovs_latency", "machine": platform.platform(), "cpus": len(__import__("os").sched_getaffinity(0)),
                   "datapath": default_datapath(), "ovs": subprocess.run(["ovs-vswitchd", "--version"], capture_output=True,
                                                                          text=True).stdout.splitlines()[0],
-                  "stream_pps": 1500, "extra_streams": args.load, "repeat": args.repeat,
+                  "stream_pps": 1500, "extra_streams": load, "repeat": repeat,
                   "flow_mod_ms": stats(flow_mod), "ff_port_down_ms": stats(ff)}
-        print(json.dumps(result, indent=1))
+        return result
     finally:
         for p in procs:
             p.kill()
         net.stop()
         cleanup.clean()
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=20)
+    ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
+    args = ap.parse_args()
+    print(json.dumps(measure(args.repeat, args.load), indent=1))
 
 
 if __name__ == "__main__":

@@ -37,7 +37,8 @@ from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
 
 RTT_BINS = 8
-CTRL_GAP_S = 0.005  # a pause between control packets longer than this is recorded as a gap
+CTRL_GAP_STEPS = 2.5  # a pause between control packets longer than this many steps is recorded (>= 2 missing)
+MAX_CTRL_GAPS = 100_000  # per turbine (a long run on a loaded machine at k = 1)
 
 
 @dataclass
@@ -201,7 +202,8 @@ class PlantService:
         ep.counts["ctrl_rx"] += 1
         rtt = ep.meas_seq - int(msg["meas_seq"])  # 0: answers the MEAS sent at the end of the last step
         ep.rtt_samples[min(max(rtt, 0), RTT_BINS - 1)] += 1
-        if ep.last_ctrl_wall > float("-inf") and now - ep.last_ctrl_wall > CTRL_GAP_S:
+        if (ep.last_ctrl_wall > float("-inf") and now - ep.last_ctrl_wall > CTRL_GAP_STEPS * self.step_s
+                and len(ep.ctrl_gaps) < MAX_CTRL_GAPS):
             ep.ctrl_gaps.append((ep.last_ctrl_wall, now))
         v_ref = complex(msg["v_ref_d"], msg["v_ref_q"])
         from_backup = bool(msg["flags"] & 2)

@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 
 from scenarios.impairments import summary_section as impairments_section
+from scenarios.interruptions import interruptions
 
 SUMMARY_VERSION = 1
 
@@ -52,6 +53,14 @@ GAP_MATCH_S = 0.010
 MIN_INTERRUPTION_S = 0.020  # shorter gaps without an SDN reaction are jitter, not a fault's effect  # a control-packet gap belongs to a fault if it starts at most this long after it
 
 
+SUMMARY_GAP_S = 0.005  # turbines.<wt>.ctrl_gaps and recoveries list pauses longer than this (interruptions: all)
+
+
+def long_gaps(stats: dict) -> list:
+    """The plant's recorded control pauses longer than :data:`SUMMARY_GAP_S` (run clock)."""
+    return [(a, b) for a, b in stats.get("ctrl_gaps_wall", []) if b - a > SUMMARY_GAP_S]
+
+
 def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0: float | None,
                duration_s: float, no_controller: list | None = None) -> list[dict]:
     """One record per (fault, turbine whose control packets it interrupted).
@@ -70,7 +79,7 @@ def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0:
     for fault in faults:
         t_f = fault.get("t_effective", fault["t"])
         for wt, stats in sorted(plant_turbines.items()):
-            gaps = [(a - t0, b - t0) for a, b in stats.get("ctrl_gaps_wall", [])]
+            gaps = [(a - t0, b - t0) for a, b in long_gaps(stats)]
             last = stats.get("last_ctrl_wall")
             last_t = last - t0 if last is not None else None
             # control packets stopped for good shortly after the fault (a few may still arrive in flight)
@@ -224,7 +233,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
             "first_ctrl_rx_t": stats.get("first_ctrl_rx_t"),
             "last_ctrl_rx_t": stats.get("last_ctrl_rx_t"),
             "ak_ones": stats.get("ak_ones", 0),
-            "ctrl_gaps": [[round(a - run.t0, 6), round(b - run.t0, 6)] for a, b in stats.get("ctrl_gaps_wall", [])]
+            "ctrl_gaps": [[round(a - run.t0, 6), round(b - run.t0, 6)] for a, b in long_gaps(stats)]
             if run.t0 else [],
             "takeover_jump_pu": stats.get("takeover_jump_pu"),
             "round_trip_samples": round_trip(stats.get("rtt_samples")),
@@ -260,6 +269,9 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "recoveries": recoveries([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
                                  plant.get("turbines", {}), [e for e in events if not e.get("shadow")], run.t0,
                                  sc.duration_s, getattr(run, "no_controller", None)),
+        "interruptions": interruptions([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
+                                       plant.get("turbines", {}), run.t0, sc.step_s,
+                                       sc.duration_s if sc.duration_s is not None else float("inf")),
         "restarts": {n: len(r) for n, r in getattr(run, "restarts", {}).items() if r},
         "no_controller": getattr(run, "no_controller", []),
         "rejected": rejections(plant, sdcs, sdn, owfcc),

@@ -16,6 +16,22 @@ PLANT_COMMANDS = {"set": lambda e: {"type": "set", "param": e.param, "value": e.
                   "scr": lambda e: {"type": "scr", "value": e.value}}
 
 
+def affected_by_link(sdn_state: dict | None, a: str, b: str) -> list[str]:
+    """The ViSC turbines whose installed path (as the SDN app last published it) crosses a–b."""
+    paths = ((sdn_state or {}).get("tables") or {}).get("paths") or {}
+    return sorted(wt for wt, p in paths.items()
+                  if any({x, y} == {a, b} for x, y in zip(p.get("path", []), p.get("path", [])[1:])))
+
+
+def affected_by_kill(sdn_state: dict | None, host: str, process: str) -> list[str]:
+    """The ViSC turbines a kill interrupts: those served by a killed SDC, every one for the SDN app
+    (its loss interrupts nothing by itself, but the turbines are what to watch)."""
+    paths = ((sdn_state or {}).get("tables") or {}).get("paths") or {}
+    if process == "sdc":
+        return sorted(wt for wt, p in paths.items() if p.get("sdc") == host)
+    return sorted(paths)
+
+
 class Timeline:
     """Acts on a running :class:`scenarios.runner.Run` (its processes, network and SDN state)."""
 
@@ -30,6 +46,8 @@ class Timeline:
         if kind in ("visc_on", "visc_off", "set_params"):
             run.processes.send("owfcc.owfcc", {"cmd": kind, "wt": event.wt, "params": getattr(event, "params", {})})
         elif kind in ("link_down", "link_up"):
+            if kind == "link_down":
+                record["affected"] = affected_by_link(run.sdn_state(), event.a, event.b)
             record["t_effective"] = round(run.set_link(event.a, event.b, kind == "link_up") - run.t0, 6)
         elif kind == "path_link_down":
             link = run.current_path_link(event.wt, event.hop)
@@ -37,7 +55,8 @@ class Timeline:
                 record.update(type="path_link_down_skipped",
                               reason=f"{event.wt} has no installed path with switch-to-switch links")
             else:
-                record.update(type="link_down", a=link[0], b=link[1], requested="path_link_down")
+                record.update(type="link_down", a=link[0], b=link[1], requested="path_link_down",
+                              affected=affected_by_link(run.sdn_state(), *link))
                 record["t_effective"] = round(run.set_link(link[0], link[1], False) - run.t0, 6)
         elif kind == "restore_links":
             down = sorted(run.links_down)
@@ -46,6 +65,7 @@ class Timeline:
             record["links"] = down
         elif kind == "kill":
             name = event.process if event.process.startswith("controller") else f"{event.host}.{event.process}"
+            record["affected"] = affected_by_kill(run.sdn_state(), event.host, event.process)
             run.processes.kill(name, crash=event.crash)
         elif kind in ("fuzz", "spoof_ak"):
             record["out"] = self.start_fuzzer(event, sum(e["type"] == kind for e in run.timeline_events))

@@ -1,0 +1,82 @@
+"""What every fault did to each affected ViSC turbine's control packets, measured the same way
+whatever reacted (a fast-failover group in the data plane, port status, DR, an SDC failover, or
+nothing) and with no threshold below which a repair disappears.
+
+The plant records every pause between two control packets longer than :data:`GAP_MIN_STEPS`
+samples (its receive loop reads packets once per step, so a pause is measured to a step). For a
+fault at ``t_f`` and a turbine it affects (``affected`` in the timeline record: the turbines whose
+path crossed the failed link, or that the killed SDC served; every turbine that was receiving
+control if the record does not say):
+
+* ``interruption_ms``: the longest pause that ends after ``t_f`` and begins before the turbine's
+  control came back for good (at most ``window_s`` after the fault), or ``None`` when there was no
+  pause above :data:`GAP_MIN_STEPS` samples (``above_2ts`` False: a repair faster than two samples
+  — still counted, as "no interruption above 2·Ts");
+* ``restored_ms``: fault → the first control packet after that pause (packets already in flight
+  at the fault do not count as restoration; at most ``2·Ts`` when there was no pause);
+* ``recovered``: False when control stopped for good within the window (the run's end excepted).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant.service import CTRL_GAP_STEPS as GAP_MIN_STEPS  # the plant records pauses longer than this (steps)
+
+WINDOW_S = 1.0
+
+
+def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, step_s: float, duration_s: float,
+                  window_s: float = WINDOW_S) -> list[dict]:
+    """One record per (fault, affected turbine); see the module docstring. ``plant_turbines``: the
+    plant's per-turbine stats (``ctrl_gaps_wall`` as [start, end] wall… pairs on the run's clock,
+    ``first_ctrl_rx_t``/``last_ctrl_wall``); ``t0``: the run clock's reading at t = 0."""
+    if t0 is None:
+        return []
+    out = []
+    bound_ms = round(2 * step_s * 1e3, 3)
+    times = sorted(f.get("t_effective", f["t"]) for f in faults)
+    for fault in faults:
+        t_f = fault.get("t_effective", fault["t"])
+        later = [t for t in times if t > t_f]
+        end = min([t_f + window_s, duration_s] + later[:1])
+        for wt in _affected(fault, plant_turbines, t0, t_f):
+            stats = plant_turbines[wt]
+            gaps = [(a - t0, b - t0) for a, b in stats.get("ctrl_gaps_wall", [])]
+            last = stats.get("last_ctrl_wall")
+            last_t = last - t0 if last is not None else None
+            stopped = last_t is not None and last_t < end and last_t < duration_s - 2 * GAP_MIN_STEPS * step_s
+            around = [(a, b) for a, b in gaps if b > t_f and a < end]
+            longest = max(around, key=lambda g: g[1] - g[0], default=None)
+            out.append({
+                "wt": wt, "fault": fault.get("type"), "t_fault": round(t_f, 6),
+                "link": [fault["a"], fault["b"]] if "a" in fault else None,
+                "interruption_ms": round((longest[1] - longest[0]) * 1e3, 3) if longest else None,
+                "above_2ts": longest is not None or stopped,
+                "restored_ms": None if stopped else (round((longest[1] - t_f) * 1e3, 3) if longest else bound_ms),
+                "recovered": not stopped,
+                "t_loss": round(longest[0], 6) if longest else (round(last_t, 6) if stopped else None),
+            })
+    return out
+
+
+def _affected(fault: dict, plant_turbines: dict, t0: float, t_f: float) -> list[str]:
+    if "affected" in fault:
+        return [wt for wt in fault["affected"] if wt in plant_turbines]
+    return sorted(wt for wt, st in plant_turbines.items()  # every turbine receiving control at the fault
+                  if st.get("last_ctrl_wall") is not None and st.get("first_ctrl_rx_t") is not None
+                  and st["first_ctrl_rx_t"] <= t_f and st["last_ctrl_wall"] - t0 >= t_f - 0.05)
+
+
+def aggregate(records: list[dict], step_s: float) -> dict:
+    """Percentiles over *all* faults (a fault without a pause above two samples counts as 2·Ts, an
+    upper bound), the count of faults with no interruption above 2·Ts, and the unrecovered count."""
+    values = [r["interruption_ms"] if r["interruption_ms"] is not None else 2 * step_s * 1e3
+              for r in records if r["recovered"]]
+    out = {"faults": len(records), "no_interruption_above_2ts": sum(not r["above_2ts"] for r in records),
+           "unrecovered": sum(not r["recovered"] for r in records)}
+    if values:
+        a = np.asarray(values)
+        out.update(p50=round(float(np.percentile(a, 50)), 3), p95=round(float(np.percentile(a, 95)), 3),
+                   max=round(float(a.max()), 3))
+    return out

@@ -1,0 +1,75 @@
+"""Every fault measured the same way at the turbine, whatever reacted (issue: recovery in the data
+plane's time): synthetic control-packet pause lists, no threshold below which a repair disappears."""
+
+from __future__ import annotations
+
+import pytest
+
+from scenarios.interruptions import aggregate, interruptions
+from scenarios.timeline import affected_by_kill, affected_by_link
+
+T0 = 1000.0
+TS = 0.67e-3
+
+
+def turbine(gaps, last=9.99, first=0.5):
+    return {"ctrl_gaps_wall": [(T0 + a, T0 + b) for a, b in gaps], "last_ctrl_wall": None if last is None else T0 + last,
+            "first_ctrl_rx_t": first}
+
+
+def link_down(t, affected=None, **kw):
+    fault = {"t": t, "t_effective": t + 0.001, "type": "link_down", "a": "s1", "b": "s3", **kw}
+    if affected is not None:
+        fault["affected"] = affected
+    return fault
+
+
+def test_a_data_plane_repair_of_8_ms_is_reported_as_8_ms():
+    stats = {"wt1_1": turbine([(0.7, 0.7027), (2.0012, 2.0092)])}  # an earlier 2.7 ms pause is not this fault's
+    (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0)
+    assert rec["interruption_ms"] == pytest.approx(8.0) and rec["above_2ts"] and rec["recovered"]
+    assert rec["restored_ms"] == pytest.approx(8.2)  # fault -> the end of the pause
+    assert rec["t_loss"] == pytest.approx(2.0012)
+
+
+def test_no_pause_above_two_samples_is_still_a_fault_counted_as_repaired():
+    stats = {"wt1_1": turbine([])}
+    (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0)
+    assert rec["interruption_ms"] is None and not rec["above_2ts"] and rec["recovered"]
+    assert rec["restored_ms"] == pytest.approx(2 * TS * 1e3)  # an upper bound
+    agg = aggregate([rec], TS)
+    assert agg == {"faults": 1, "no_interruption_above_2ts": 1, "unrecovered": 0,
+                   "p50": pytest.approx(1.34), "p95": pytest.approx(1.34), "max": pytest.approx(1.34)}
+
+
+def test_the_longest_pause_before_control_is_back_for_good_and_before_the_next_fault():
+    # DR: a 45 ms pause, then a short hiccup on the new path; the next fault's pause is not this one's
+    stats = {"wt1_1": turbine([(2.0011, 2.046), (2.06, 2.063), (2.5011, 2.53)])}
+    recs = interruptions([link_down(2.0, ["wt1_1"]), link_down(2.5, ["wt1_1"])], stats, T0, TS, duration_s=10.0)
+    assert [r["interruption_ms"] for r in recs] == [pytest.approx(44.9), pytest.approx(28.9)]
+
+
+def test_stopped_for_good_is_unrecovered_but_the_runs_end_is_not_a_fault():
+    stats = {"wt1_1": turbine([], last=2.004), "wt1_2": turbine([], last=9.999)}
+    kill = {"t": 2.0, "type": "kill", "host": "sdc1", "process": "sdc", "affected": ["wt1_1", "wt1_2"]}
+    recs = {r["wt"]: r for r in interruptions([kill], stats, T0, TS, duration_s=10.0)}
+    assert not recs["wt1_1"]["recovered"] and recs["wt1_1"]["restored_ms"] is None
+    assert recs["wt1_2"]["recovered"]
+    assert aggregate(list(recs.values()), TS)["unrecovered"] == 1
+
+
+def test_only_the_affected_turbines_unless_the_record_does_not_say():
+    stats = {"wt1_1": turbine([(2.0011, 2.02)]), "wt1_2": turbine([]), "wt2_1": turbine([], first=None, last=None)}
+    assert [r["wt"] for r in interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, 10.0)] == ["wt1_1"]
+    # a CLI link_down says nothing: every turbine receiving control at the fault
+    assert [r["wt"] for r in interruptions([link_down(2.0)], stats, T0, TS, 10.0)] == ["wt1_1", "wt1_2"]
+
+
+def test_affected_turbines_come_from_the_published_paths():
+    state = {"tables": {"paths": {"wt1_1": {"path": ["sdc1", "s1", "s3", "l2", "wt1_1"], "sdc": "sdc1"},
+                                  "wt2_1": {"path": ["sdc2", "s2", "s4", "wt2_1"], "sdc": "sdc2"}}}}
+    assert affected_by_link(state, "s3", "s1") == ["wt1_1"]
+    assert affected_by_link(state, "s1", "s4") == []
+    assert affected_by_link(None, "s1", "s3") == []
+    assert affected_by_kill(state, "sdc2", "sdc") == ["wt2_1"]
+    assert affected_by_kill(state, "controller", "controller") == ["wt1_1", "wt2_1"]
