@@ -32,6 +32,7 @@ import numpy as np
 
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS, VISC_PARAMS
+from sdvisc.wire_batch import float_rows
 
 MEAS_ABS_MAX_PU = 100.0
 """Largest magnitude of a per-unit measurement (voltage, current, power, DC voltage, frequency)."""
@@ -63,7 +64,12 @@ def meas_out_of_range(values: dict) -> bool:
 
 
 def out_of_range_rows(records) -> np.ndarray:
-    """:func:`meas_out_of_range` for every row of a decoded MEAS batch at once (boolean mask)."""
+    """:func:`meas_out_of_range` for every row of a decoded MEAS batch at once (boolean mask);
+    ``records``: a MEAS record array or a dict of columns."""
+    if isinstance(records, np.ndarray):  # t_sim and the measurements are consecutive words: one matrix
+        rows = float_rows(records, ("t_sim", *MEAS_FIELDS))
+        t_sim = rows[0]
+        return (t_sim < 0.0) | (t_sim > T_SIM_MAX_S) | (np.abs(rows[1:]) > MEAS_ABS_MAX_PU).any(axis=0)
     t_sim = records["t_sim"]
     bad = (t_sim < 0.0) | (t_sim > T_SIM_MAX_S)
     for k in MEAS_FIELDS:

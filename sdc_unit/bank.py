@@ -106,17 +106,22 @@ class ControllerBank:
             full[k][slots[follow]] = meas[k][follow]
         self.visc.track(SimpleNamespace(**full), index=slots[follow])
 
-    def step(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> tuple[dict[str, np.ndarray], np.ndarray]:
-        """Advance the controllers of ``slots`` by one sample; returns (outputs, valid) per given slot."""
+    def step(self, slots: np.ndarray, meas: dict[str, np.ndarray] | np.ndarray) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """Advance the controllers of ``slots`` by one sample; returns (outputs, valid) per given slot.
+        ``meas``: the MEAS_FIELDS by name, or a (len(MEAS_FIELDS), len(slots)) matrix in that row order."""
         slots = np.asarray(slots, dtype=np.intp)
         if slots.size == 0:
             return {k: np.zeros(0, dtype=bool if k == "limited" else float) for k in OUT_KEYS}, np.zeros(0, dtype=bool)
-        rows = np.array([meas[k] for k in MEAS_FIELDS], dtype=float)
+        if isinstance(meas, np.ndarray):
+            rows = np.asarray(meas, dtype=float)
+        else:
+            rows = np.array([meas[k] for k in MEAS_FIELDS], dtype=float)
         usable = np.isfinite(rows).all(axis=0) & self.started[slots]
         all_usable = bool(usable.all())
         used = slots if all_usable else slots[usable]
         if not self.initialised[used].all():  # only a fresh slot needs the (per-slot) initialisation
-            self._initialise(used, {k: v[usable] for k, v in meas.items()})
+            named = dict(zip(MEAS_FIELDS, rows)) if isinstance(meas, np.ndarray) else meas
+            self._initialise(used, {k: v[usable] for k, v in named.items()})
         if self.visc is None:
             v = self.hold_v[slots]
             out = {k: np.zeros(len(slots)) for k in OUT_KEYS}
@@ -128,18 +133,15 @@ class ControllerBank:
         return self._step_visc(slots, rows, usable, used, all_usable)
 
     def _step_visc(self, slots, rows, usable, used, all_usable):
+        visc = self.visc
         full = np.zeros((len(MEAS_FIELDS), self.capacity))
         full[:, used] = rows if all_usable else rows[:, usable]
-        saved = self.visc.active.copy()
         stepping = np.zeros(self.capacity, dtype=bool)
         stepping[used] = True
-        self.visc.active &= stepping
-        try:
-            result = self.visc.step(full)  # rows in MEAS_FIELDS order
-        finally:
-            self.visc.active[:] = saved
-        valid = usable & result.valid[slots]
-        out = {k: getattr(result, k)[slots] for k in OUT_KEYS}
+        ok = visc.advance(full, stepping)  # rows in MEAS_FIELDS order; the outputs are in visc.last
+        valid = usable & ok[slots]
+        out = dict(zip(CTRL_OUTPUTS, np.array([visc.last[k] for k in CTRL_OUTPUTS])[:, slots]))
+        out["limited"] = visc.last_limited[slots]
         return out, valid
 
 

@@ -145,11 +145,19 @@ class DiscreteVisc:
         non-finite measurements (those are not stepped; their fields hold the last valid output,
         never NaN).
         """
+        return self._outputs(self.advance(meas))
+
+    def advance(self, meas, stepping: np.ndarray | None = None) -> np.ndarray:
+        """:meth:`step` without building its :class:`Outputs` (they are in ``last`` and
+        ``last_limited``); returns ``valid``. ``stepping`` (boolean, one per instance): step only
+        those of the active instances (the others keep their states and outputs)."""
         m, finite = self._meas(meas)
         mask = self.active & finite
+        if stepping is not None:
+            mask &= stepping
         ok = self.engine.advance(m, mask)
         self.k += 1
-        return self._outputs(ok)
+        return ok
 
     def _outputs(self, valid) -> Outputs:
         rows = np.array([self.last[f] for f in OUT_FIELDS])  # one copy of every output

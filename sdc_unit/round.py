@@ -12,7 +12,7 @@ import numpy as np
 
 from sdvisc import wire
 from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS
-from sdvisc.wire_batch import encode_batch
+from sdvisc.wire_batch import encode_batch, float_rows
 
 from .bank import ControllerBank
 
@@ -30,12 +30,15 @@ def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray,
     Returns (valid, ctrl): ``valid[r]`` is True where slot r gave a usable output (started, finite
     measurements and outputs); ``ctrl`` holds the CTRL words of the valid rows, in row order: the
     :data:`CTRL_OUTPUTS`, ``wt``, ``meas_seq`` and ``flags`` -- all but the CTRL's own ``seq``."""
-    out, valid = bank.step(slots, {k: meas[k].astype(float) for k in MEAS_FIELDS})
-    flags = out["limited"][valid].astype(int)  # FLAG_LIMITED is bit 0
+    out, valid = bank.step(slots, float_rows(meas, MEAS_FIELDS))
+    if valid.all():  # the usual case: every row answered, no selection
+        ctrl = {k: out[k] for k in CTRL_OUTPUTS}
+        ctrl.update(wt=meas["wt"], meas_seq=meas["seq"], flags=out["limited"].astype(int))  # FLAG_LIMITED: bit 0
+    else:
+        ctrl = {k: out[k][valid] for k in CTRL_OUTPUTS}
+        ctrl.update(wt=meas["wt"][valid], meas_seq=meas["seq"][valid], flags=out["limited"][valid].astype(int))
     if backup:
-        flags |= FLAG_BACKUP
-    ctrl = {k: out[k][valid] for k in CTRL_OUTPUTS}
-    ctrl.update(wt=meas["wt"][valid], meas_seq=meas["seq"][valid], flags=flags)
+        ctrl["flags"] |= FLAG_BACKUP
     return valid, ctrl
 
 

@@ -60,6 +60,8 @@ from sdvisc.vocabulary import MEAS_FIELDS, REQUEST_PARAM_WORDS
 from sdvisc.wire_batch import decode_batch, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
+ADMIT_WORDS = ("hdr_sec", "hdr_nsec", "wt", "seq", "t_sim")
+"""What the admission reads of each MEAS (the header's send time only with the header)."""
 
 
 @dataclass
@@ -245,10 +247,12 @@ class SdcService:
         batch: dict[int, list[tuple[int, tuple]]] = {}
         rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
         self.rx_records = rec
-        delays = ((now - (rec["hdr_sec"] + rec["hdr_nsec"] * 1e-9)) * 1e3).tolist() if self.header else None
-        columns = {k: rec[k].tolist() for k in ("wt", "seq", "t_sim")}
+        # the header's send time and the admission's words of every row, as Python values, in one call
+        words = rec[list(ADMIT_WORDS if self.header else ADMIT_WORDS[2:])].tolist()
         out_of_range = admission.out_of_range_rows(rec).tolist()  # one vectorised check per batch
-        for j, (wid, seq, t_sim) in enumerate(zip(columns["wt"], columns["seq"], columns["t_sim"])):
+        sources = index.tolist()
+        for j, row in enumerate(words):
+            wid, seq, t_sim = row[-3:]
             if not admission.turbine_ok(wid):
                 self._reject("unknown_turbine")
                 continue
@@ -275,12 +279,12 @@ class SdcService:
                 continue
             if previous >= 0 and seq > previous + 1:
                 inst.counts["meas_lost"] += seq - previous - 1
-            if delays is not None and len(inst.meas_delays_ms) < 200_000:
-                inst.meas_delays_ms.append(delays[j])
+            if self.header and len(inst.meas_delays_ms) < 200_000:
+                inst.meas_delays_ms.append((now - (row[0] + row[1] * 1e-9)) * 1e3)
             inst.counts["meas_rx"] += 1
             if inst.first_meas_rx_t is None:
                 inst.first_meas_rx_t = t_sim
-            batch.setdefault(wid, []).append((j, meas_addr[int(index[j])]))
+            batch.setdefault(wid, []).append((j, meas_addr[sources[j]]))
         return batch
 
     def _serve(self, batch: dict[int, list[tuple[int, tuple]]], now: float) -> None:
@@ -296,12 +300,17 @@ class SdcService:
         """Step the turbines of one round together (:func:`sdc_unit.round.step_round`) and answer
         each with one CTRL."""
         insts = [self.instances[w] for w in newest]
-        rows = np.fromiter((newest[i.wid][0] for i in insts), dtype=np.intp, count=len(insts))
-        slots = np.fromiter((i.slot for i in insts), dtype=np.intp, count=len(insts))
-        valid, ctrl = step_round(self.bank, slots, self.rx_records[rows], backup=self.role == "backup")
-        for inst in (i for i, ok in zip(insts, valid.tolist()) if not ok):
-            inst.counts["ctrl_invalid"] += 1
-        sent = [i for i, ok in zip(insts, valid.tolist()) if ok]
+        rows = [newest[i.wid][0] for i in insts]
+        slots = np.array([i.slot for i in insts], dtype=np.intp)
+        rec = self.rx_records
+        meas = rec if rows == list(range(len(rec))) else rec[rows]  # usually every row, in order
+        valid, ctrl = step_round(self.bank, slots, meas, backup=self.role == "backup")
+        sent = []
+        for inst, ok in zip(insts, valid.tolist()):
+            if ok:
+                sent.append(inst)
+            else:
+                inst.counts["ctrl_invalid"] += 1
         if not sent:
             return
         for inst in sent:

@@ -17,6 +17,7 @@ import math
 import struct
 from collections.abc import Mapping, Sequence
 from functools import cache
+from operator import itemgetter
 
 import numpy as np
 
@@ -60,16 +61,46 @@ def _enum_fields(mtype: MsgType) -> tuple:
     return tuple((f.name, np.array([int(m) for m in f.enum])) for f in LAYOUTS[mtype][1:] if f.enum is not None)
 
 
-@cache
-def _type_bytes(mtype: MsgType) -> bytes:
-    return int(mtype).to_bytes(4, "big", signed=True)
+_TYPE_WORD: dict[tuple, tuple[int, int, bytes]] = {}
+"""(mtype, header) -> (datagram length, offset of the type word, the type word's bytes), for :func:`is_type`."""
 
 
 def is_type(data: bytes, mtype: MsgType, header: bool) -> bool:
     """Cheap pre-sort of a receive batch: ``data`` has ``mtype``'s length and type word (the full
     checks are :func:`decode_batch`'s)."""
-    at = (HEADER_WORDS if header else 0) * WORD_BYTES
-    return len(data) == record_dtype(mtype, header).itemsize and data[at:at + 4] == _type_bytes(mtype)
+    key = (mtype, header)
+    found = _TYPE_WORD.get(key)
+    if found is None:
+        at = (HEADER_WORDS if header else 0) * WORD_BYTES
+        found = _TYPE_WORD[key] = (record_dtype(mtype, header).itemsize, at, int(mtype).to_bytes(4, "big", signed=True))
+    size, at, word = found
+    return len(data) == size and data[at:at + 4] == word
+
+
+@cache
+def _word_span(dtype: np.dtype, names: tuple[str, ...]) -> tuple[int, int] | None:
+    """(first word, words per record) when ``names`` are consecutive 4-byte float fields of the
+    packed record ``dtype``, else None."""
+    if dtype.itemsize % WORD_BYTES:
+        return None
+    offsets = [dtype.fields[name][1] for name in names]
+    kinds = {dtype.fields[name][0].str for name in names}
+    if kinds != {">f4"} or offsets != list(range(offsets[0], offsets[0] + WORD_BYTES * len(names), WORD_BYTES)):
+        return None
+    return offsets[0] // WORD_BYTES, dtype.itemsize // WORD_BYTES
+
+
+def float_rows(records: np.ndarray, names: Sequence[str]) -> np.ndarray:
+    """The float fields ``names`` of a record array as a (len(names), len(records)) float64 matrix,
+    row i = ``records[names[i]]`` (exactly: float32 widens to float64 without rounding). Consecutive
+    fields of a contiguous array are taken in one strided copy."""
+    names = tuple(names)
+    span = _word_span(records.dtype, names) if records.ndim == 1 and records.flags.c_contiguous else None
+    if span is None:
+        return np.array([records[name] for name in names], dtype=float)
+    first, width = span
+    words = records.view(records.dtype.fields[names[0]][0]).reshape(len(records), width)
+    return np.ascontiguousarray(words[:, first:first + len(names)].T, dtype=float)
 
 
 def decode_batch(datagrams: Sequence[bytes], mtype: MsgType, *, header: bool,
@@ -120,7 +151,7 @@ def _columns(mtype: MsgType, header: bool) -> tuple:
     body = list(enumerate(LAYOUTS[mtype]))[1:]
     floats = tuple((first + i, f.name) for i, f in body if f.kind == "f32")
     ints = tuple((first + i, f.name) for i, f in body if f.kind == "i32")
-    return floats, ints
+    return floats, ints, frozenset(name for _, name in floats + ints)
 
 
 def encode_batch(mtype: MsgType, columns: Mapping[str, np.ndarray | int | float], *,
@@ -129,12 +160,11 @@ def encode_batch(mtype: MsgType, columns: Mapping[str, np.ndarray | int | float]
     an array (or a scalar shared by all rows); ``header`` is (seq, sec, nsec), arrays or scalars,
     or None for no header. Raises WireError on a missing/unknown field, a NaN/Inf or a value that
     does not fit its word."""
-    floats, ints = _columns(mtype, header is not None)
-    names = {name for _, name in floats + ints}
+    floats, ints, names = _columns(mtype, header is not None)
     if columns.keys() != names:
         raise WireError("field", f"{mtype.name}: missing {sorted(names - set(columns))}, "
                                  f"unexpected {sorted(set(columns) - names)}")
-    rows = max((np.size(v) for v in columns.values()), default=0)
+    rows = max((len(v) if type(v) is np.ndarray and v.ndim == 1 else np.size(v) for v in columns.values()), default=0)
     if rows <= SMALL_BATCH:
         return _encode_rows(mtype, columns, header, rows)
     words = np.empty((rows, record_dtype(mtype, header is not None).itemsize // WORD_BYTES), dtype=">u4")
@@ -186,24 +216,35 @@ def _as_list(value, rows: int) -> list:
     return np.broadcast_to(value, (rows,)).tolist()
 
 
+@cache
+def _row_plan(mtype: MsgType, header: bool) -> tuple:
+    """What :func:`_encode_rows` needs of ``mtype``: its fields, the float positions, the packer."""
+    layout = LAYOUTS[mtype][1:]
+    float_at = tuple(j for j, f in enumerate(layout) if f.kind == "f32")
+    if len(float_at) == 1:
+        take_floats = lambda values, at=float_at[0]: (values[at],)  # noqa: E731 - itemgetter of one is no tuple
+    else:
+        take_floats = itemgetter(*float_at) if float_at else (lambda values: ())
+    return layout, float_at, take_floats, wire_packer(mtype, header=header).pack
+
+
 def _encode_rows(mtype: MsgType, columns: Mapping, header: tuple | None, rows: int) -> list[bytes]:
     """encode_batch for a few rows: one ``struct.pack`` per row, the same checks and errors."""
-    layout = LAYOUTS[mtype][1:]
-    pack = wire_packer(mtype, header=header is not None).pack
-    cols = [_as_list(columns[f.name], rows) for f in layout]
+    layout, float_at, take_floats, pack = _row_plan(mtype, header is not None)
+    cols = [value.tolist() if type(value) is np.ndarray and value.shape == (rows,) else _as_list(value, rows)
+            for value in (columns[f.name] for f in layout)]
     heads = [_as_list(h, rows) for h in header] if header is not None else []
-    float_at = [j for j, f in enumerate(layout) if f.kind == "f32"]
+    type_word = int(mtype)
     out = []
-    for r in range(rows):
-        values = [c[r] for c in cols]
-        if not math.isfinite(sum(values[j] for j in float_at)):
+    for r, values in enumerate(zip(*cols)):
+        if not math.isfinite(sum(take_floats(values))):
             j = next(j for j in float_at if not math.isfinite(values[j]))
             raise WireError("nonfinite", f"{mtype.name}.{layout[j].name} = {values[j]!r} (row {r})")
         prefix = [h[r] for h in heads]
         if any(not 0 <= v <= UINT32_MAX for v in prefix):
             raise WireError("range", f"header {prefix} (row {r}) is not unsigned 32-bit")
         try:
-            out.append(pack(*prefix, int(mtype), *values))
+            out.append(pack(*prefix, type_word, *values))
         except (struct.error, OverflowError) as exc:
             raise WireError("range", f"{mtype.name} row {r}: {exc}") from None
     return out

@@ -52,3 +52,13 @@ def test_bank_step_with_no_slots_returns_empty_outputs():
     bank = ControllerBank(capacity=3, step_s=0.67e-3)
     out, valid = bank.step(np.array([], dtype=int), {k: np.zeros(0) for k in MEAS_FIELDS})
     assert valid.shape == (0,) and out["v_ref_d"].shape == (0,)
+
+
+def test_round_cost_benchmark_answers_every_measurement_once():
+    spec = importlib.util.spec_from_file_location("sdc_round_cost", ROOT / "benchmarks" / "sdc_round_cost.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    for mode in ("single", "batch"):
+        res = mod.run_memory(3, mode, rounds=12, warm=3)
+        assert res["ctrl_sent"] == res["ctrl_expected"] and not res["rejected"]
+        assert res["cpu_us_per_round"] > 0

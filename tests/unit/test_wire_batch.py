@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from sdvisc import wire
-from sdvisc.wire_batch import decode_batch, encode_batch, is_type
+from sdvisc.wire_batch import decode_batch, encode_batch, float_rows, is_type
 
 CTRL_FLOATS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag")
 MEAS_FLOATS = ("t_sim", "v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")
@@ -95,3 +95,16 @@ def test_decode_batch_equals_decode_and_rejects_what_decode_rejects():
 def test_decode_batch_of_nothing():
     rec, index = decode_batch([], wire.MsgType.MEAS, header=False)
     assert len(rec) == 0 and len(index) == 0
+
+
+@pytest.mark.parametrize("header", [True, False])
+def test_float_rows_equals_the_fields_of_the_records(header):
+    batch = [wire.encode(wire.MsgType.MEAS, _meas(j, 10 + j), header=wire.Header(j, 5, 6) if header else None)
+             for j in range(4)]
+    rec, _ = decode_batch(batch, wire.MsgType.MEAS, header=header)
+    for records in (rec, rec[[2, 0]], rec[::2]):  # a view of the received bytes, a copy, a strided view
+        rows = float_rows(records, MEAS_FLOATS)
+        assert rows.dtype == np.float64 and rows.shape == (len(MEAS_FLOATS), len(records))
+        for i, k in enumerate(MEAS_FLOATS):
+            assert rows[i].tolist() == records[k].astype(float).tolist()
+    assert float_rows(rec, ("seq", "t_sim")).tolist() == [rec["seq"].tolist(), rec["t_sim"].astype(float).tolist()]
