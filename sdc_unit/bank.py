@@ -134,12 +134,11 @@ class ControllerBank:
 
     def _step_visc(self, slots, rows, usable, used, all_usable):
         visc = self.visc
-        full = np.zeros((len(MEAS_FIELDS), self.capacity))
-        full[:, used] = rows if all_usable else rows[:, usable]
-        stepping = np.zeros(self.capacity, dtype=bool)
-        stepping[used] = True
-        ok = visc.advance(full, stepping)  # rows in MEAS_FIELDS order; the outputs are in visc.last
-        valid = usable & ok[slots]
+        if all_usable:
+            valid = visc.advance_slots(used, rows)  # the outputs are in visc.last
+        else:
+            valid = usable.copy()
+            valid[usable] = visc.advance_slots(used, rows[:, usable])
         out = dict(zip(CTRL_OUTPUTS, np.array([visc.last[k] for k in CTRL_OUTPUTS])[:, slots]))
         out["limited"] = visc.last_limited[slots]
         return out, valid

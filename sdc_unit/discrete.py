@@ -159,6 +159,21 @@ class DiscreteVisc:
         self.k += 1
         return ok
 
+    def advance_slots(self, slots: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """:meth:`advance` of the active instances among ``slots`` (distinct indices) on ``rows``, their
+        measurements as a (len(MEAS_FIELDS), len(slots)) matrix that is finite (the caller has
+        checked); the others are not touched. Returns ``valid`` per slot."""
+        direct = getattr(self.engine, "advance_slots", None)
+        if direct is None:
+            full = np.zeros((len(MEAS_FIELDS), self.n))
+            full[:, slots] = rows
+            stepping = np.zeros(self.n, dtype=bool)
+            stepping[slots] = True
+            return self.advance(full, stepping)[slots]
+        ok = direct(slots, rows, self.active[slots])
+        self.k += 1
+        return ok
+
     def _outputs(self, valid) -> Outputs:
         rows = np.array([self.last[f] for f in OUT_FIELDS])  # one copy of every output
         return Outputs(**dict(zip(OUT_FIELDS, rows)), limited=self.last_limited.copy(),

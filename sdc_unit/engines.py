@@ -164,6 +164,8 @@ class CompiledEngine:
         self.visc = visc
         self.consts, self.flags = tables
         self.stale = True
+        self._slot_meas: np.ndarray | None = None  # advance_slots' measurement matrix and mask
+        self._slot_mask: np.ndarray | None = None
 
     def states_replaced(self) -> None:
         """Something outside the step replaced states or parameters: stack them again before the next step."""
@@ -212,3 +214,27 @@ class CompiledEngine:
         jit.tustin_step(self._x, self._coef, consts, flags, meas, self._refs, self._mem, mask, self._last, limited, ok)
         v.last_limited = limited
         return ok
+
+    def advance_slots(self, slots: np.ndarray, rows: np.ndarray, stepping: np.ndarray) -> np.ndarray:
+        """:meth:`advance` of the instances ``slots`` where ``stepping`` (one per slot), on ``rows``
+        (finite, (len(MEAS_FIELDS), len(slots))): the rows go into a persistent measurement matrix
+        (the kernel reads only the columns it steps), no matrix of the whole bank is built.
+        Returns the validity per slot."""
+        v = self.visc
+        if self.stale:
+            self._stack()
+        if self._slot_meas is None or self._slot_meas.shape[1] != v.n:
+            self._slot_meas = np.zeros((len(MEAS_FIELDS), v.n), dtype=v.dtype)
+            self._slot_mask = np.zeros(v.n, dtype=bool)
+        meas, mask = self._slot_meas, self._slot_mask
+        meas[:, slots] = rows  # into the working precision, rounded as astype rounds
+        mask[slots] = stepping
+        limited = v.last_limited.copy()
+        ok = np.empty(v.n, dtype=bool)
+        try:
+            jit.tustin_step(self._x, self._coef, self.consts, self.flags, meas, self._refs, self._mem, mask, self._last,
+                            limited, ok)
+        finally:
+            mask[slots] = False
+        v.last_limited = limited
+        return ok[slots]

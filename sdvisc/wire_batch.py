@@ -112,6 +112,8 @@ def decode_batch(datagrams: Sequence[bytes], mtype: MsgType, *, header: bool,
     ones are counted in ``stats`` by reason.
     """
     dtype = record_dtype(mtype, header)
+    if len(datagrams) <= SMALL_BATCH:
+        return _decode_rows(datagrams, mtype, header, stats, dtype)
     size = dtype.itemsize
     if set(map(len, datagrams)) == {size}:  # the usual case: every datagram has the right length
         sized = range(len(datagrams))
@@ -143,6 +145,58 @@ def decode_batch(datagrams: Sequence[bytes], mtype: MsgType, *, header: bool,
         stats.ok += int(np.count_nonzero(ok))
     index = np.asarray(sized, dtype=np.intp)[ok]
     return records[ok], index
+
+
+@cache
+def _check_plan(mtype: MsgType, header: bool) -> tuple:
+    """What :func:`_decode_rows` checks in a ``mtype`` datagram's words: the type word's position,
+    the float words, the enum words with their codes, and the unpacker."""
+    first = HEADER_WORDS if header else 0
+    layout = LAYOUTS[mtype]
+    floats = tuple(first + i for i, f in enumerate(layout) if f.kind == "f32")
+    enums = tuple((first + i, frozenset(int(m) for m in f.enum)) for i, f in enumerate(layout) if i and f.enum is not None)
+    return first, _take(floats), enums, wire_packer(mtype, header=header).unpack
+
+
+def _decode_rows(datagrams: Sequence[bytes], mtype: MsgType, header: bool, stats: DecodeStats | None,
+                 dtype: np.dtype) -> tuple[np.ndarray, np.ndarray]:
+    """decode_batch for a few datagrams: the checks one ``struct.unpack`` each, in the order and with
+    the reasons of the numpy path, then the accepted bytes as one record array."""
+    type_at, take_floats, enums, unpack = _check_plan(mtype, header)
+    size, code = dtype.itemsize, int(mtype)
+    kept: list[int] = []
+    length = wrong_type = nonfinite = out_of_range = 0
+    for i, data in enumerate(datagrams):
+        if len(data) != size:
+            length += 1
+            continue
+        words = unpack(data)
+        if words[type_at] != code:
+            wrong_type += 1
+        elif not math.isfinite(sum(take_floats(words))):  # float32 values: the sum is finite iff each is
+            nonfinite += 1
+        elif any(words[at] not in codes for at, codes in enums):
+            out_of_range += 1
+        else:
+            kept.append(i)
+    if stats is not None:
+        stats.length += length
+        stats.type += wrong_type
+        stats.nonfinite += nonfinite
+        stats.range += out_of_range
+        stats.ok += len(kept)
+    if len(kept) == len(datagrams) and kept:  # the usual case: a read-only view of the received bytes
+        return np.frombuffer(b"".join(datagrams), dtype=dtype), np.arange(len(kept), dtype=np.intp)
+    if not kept:
+        return np.zeros(0, dtype=dtype), np.zeros(0, dtype=np.intp)
+    return np.frombuffer(b"".join(datagrams[i] for i in kept), dtype=dtype).copy(), np.array(kept, dtype=np.intp)
+
+
+def _take(positions: tuple[int, ...]):
+    """A function returning the tuple of the values at ``positions`` (itemgetter's, also for 0 or 1)."""
+    if len(positions) == 1:
+        return lambda values, at=positions[0]: (values[at],)
+    return itemgetter(*positions) if positions else (lambda values: ())
 
 
 @cache
@@ -211,6 +265,8 @@ def _as_list(value, rows: int) -> list:
         if len(value) != rows:
             raise WireError("field", f"column of {len(value)} values for {rows} rows")
         return value.tolist()
+    if type(value) is int or type(value) is float:
+        return [value] * rows
     if np.ndim(value) == 0:
         return [value.item() if isinstance(value, np.generic) else value] * rows
     return np.broadcast_to(value, (rows,)).tolist()
@@ -221,11 +277,7 @@ def _row_plan(mtype: MsgType, header: bool) -> tuple:
     """What :func:`_encode_rows` needs of ``mtype``: its fields, the float positions, the packer."""
     layout = LAYOUTS[mtype][1:]
     float_at = tuple(j for j, f in enumerate(layout) if f.kind == "f32")
-    if len(float_at) == 1:
-        take_floats = lambda values, at=float_at[0]: (values[at],)  # noqa: E731 - itemgetter of one is no tuple
-    else:
-        take_floats = itemgetter(*float_at) if float_at else (lambda values: ())
-    return layout, float_at, take_floats, wire_packer(mtype, header=header).pack
+    return layout, float_at, _take(float_at), wire_packer(mtype, header=header).pack
 
 
 def _encode_rows(mtype: MsgType, columns: Mapping, header: tuple | None, rows: int) -> list[bytes]:

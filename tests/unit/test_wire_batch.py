@@ -108,3 +108,35 @@ def test_float_rows_equals_the_fields_of_the_records(header):
         for i, k in enumerate(MEAS_FLOATS):
             assert rows[i].tolist() == records[k].astype(float).tolist()
     assert float_rows(rec, ("seq", "t_sim")).tolist() == [rec["seq"].tolist(), rec["t_sim"].astype(float).tolist()]
+
+
+def test_decode_batch_small_and_large_batches_accept_and_count_alike():
+    """A few datagrams are checked one struct.unpack each, many with numpy: the same verdicts."""
+    rng = np.random.default_rng(7)
+    batch = []
+    for j in range(40):
+        data = bytearray(wire.encode(wire.MsgType.MEAS, _meas(j % 9, j), header=wire.Header(j, 5, 6)))
+        kind = rng.integers(6)
+        if kind == 1:
+            struct.pack_into(">f", data, 4 * (3 + 4 + rng.integers(8)), [math.nan, math.inf, -math.inf][j % 3])
+        elif kind == 2:
+            struct.pack_into(">i", data, 12, int(wire.MsgType.CTRL))
+        elif kind == 3:
+            data = data[:-4]
+        batch.append(bytes(data))
+    large_stats, small_stats = wire.DecodeStats(), wire.DecodeStats()
+    rec, index = decode_batch(batch, wire.MsgType.MEAS, header=True, stats=large_stats)
+    pieces = [decode_batch(batch[k:k + 3], wire.MsgType.MEAS, header=True, stats=small_stats)
+              for k in range(0, len(batch), 3)]
+    assert small_stats.as_dict() == large_stats.as_dict() and large_stats.nonfinite and large_stats.type
+    assert [3 * k + i for k, (_, idx) in enumerate(pieces) for i in idx.tolist()] == index.tolist()
+    assert b"".join(r.tobytes() for r, _ in pieces) == rec.tobytes()
+    requests = [wire.encode(wire.MsgType.REQUEST, {"req_id": 1, "cmd": 1, "wt": 101, "sdc_ip": 0, "mask": 0, "h": 0.0,
+                                                   "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0})]
+    bad_cmd = bytearray(requests[0])
+    struct.pack_into(">i", bad_cmd, 8, 99)  # cmd: no such command
+    for many in (False, True):
+        stats = wire.DecodeStats()
+        got, idx = decode_batch((requests + [bytes(bad_cmd)]) * (6 if many else 1), wire.MsgType.REQUEST,
+                                header=False, stats=stats)
+        assert stats.range == len(idx) and len(got) == len(idx) == (6 if many else 1)
