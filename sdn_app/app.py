@@ -19,6 +19,7 @@ from os_ken.controller.handler import CONFIG_DISPATCHER, MAIN_DISPATCHER, set_ev
 from os_ken.lib import hub
 from os_ken.ofproto import ofproto_v1_3
 
+from sdn_app.flows import Barrier
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdn_app.redundancy import RoleState
@@ -66,6 +67,7 @@ class SdviscApp(app_manager.OSKenApp):
         else:
             self._events_file = None
         self._last_publish = 0.0
+        self._barriers: dict[tuple[int, int], str] = {}  # (dpid, xid) -> path tag, until the reply
         self._timer = hub.spawn(self._timer_loop)  # ends when STOPPING is set
 
     # ------------------------------------------------------------------ plumbing
@@ -83,6 +85,8 @@ class SdviscApp(app_manager.OSKenApp):
                 dp.send_msg(msg)
                 self.of_counts[f"tx_{type(msg).__name__}"] += 1
                 self.of_counts["tx_total"] += 1
+                if isinstance(action, Barrier):  # send_msg gave it its xid: the reply carries the same
+                    self._barriers[(dp.id, msg.xid)] = action.tag
         self._flush_events()
 
     def _flush_events(self) -> None:
@@ -192,6 +196,15 @@ class SdviscApp(app_manager.OSKenApp):
         if msg.reason == ofp.OFPPR_DELETE:
             up = False
         self._send(self.logic.port_status(msg.datapath.id, desc.port_no, up, self.clock.now()))
+
+    @set_ev_cls(ofp_event.EventOFPBarrierReply, MAIN_DISPATCHER)
+    def _barrier_reply(self, ev):
+        msg = ev.msg
+        self.of_counts["rx_barrier_reply"] += 1
+        self.of_counts["rx_total"] += 1
+        tag = self._barriers.pop((msg.datapath.id, msg.xid), None)
+        if tag is not None:
+            self._send(self.logic.barrier_reply(msg.datapath.id, tag, self.clock.now()))
 
     @set_ev_cls(ofp_event.EventOFPEchoRequest, [CONFIG_DISPATCHER, MAIN_DISPATCHER])
     def _echo(self, ev):

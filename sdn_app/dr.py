@@ -16,8 +16,11 @@ the header is missing or implausible). The loss therefore started at ``sent − 
   silence says nothing about this turbine and nothing is decided until packets flow again), and
   counted from the end of the last such stall (``resumed``) if that is later.
 
-After a reroute the hold starts again from the reroute time, so a second failure on the new path
-is detected the same way — but a DR that did not bring the control packets back (they are still
+After a reroute the hold starts again when the new path can first deliver: every switch of it has
+acknowledged its flows (barrier replies, :meth:`DrMonitor.path_ready`) plus the turbine's measured
+one-way delay (its AKs' send stamps) — at the latest :data:`READY_TIMEOUT_S` after the reroute if
+replies never come. So a loaded machine that takes 35 ms to install a path does not get a second
+DR for the same failure, and a second failure on the new path is detected the same way — but a DR that did not bring the control packets back (they are still
 missing when the next one is due) doubles the hold of the next (:meth:`DrMonitor.hold_of`): the loss is
 then not the path's, and rerouting every 40 ms forever would only churn the switches.
 """
@@ -29,6 +32,10 @@ from dataclasses import dataclass, field
 from sdvisc.counter_gate import CounterGate
 
 MAX_BACKOFF_DOUBLINGS = 5
+READY_TIMEOUT_S = 0.1
+"""After a reroute, the hold waits at most this long for the new path's acknowledgements."""
+ONE_WAY_WEIGHT = 0.2
+"""Weight of the newest AK in the turbine's one-way delay estimate (exponential average)."""
 AK_MAX_STEP = 100
 """AK counter steps accepted without confirmation (about 1 s of AKs, losses included)."""
 PLAUSIBLE_CLOCK_S = 1.0
@@ -52,6 +59,8 @@ class AckTrack:
     streak: int = 0  # DRs in a row without control packets coming back in between
     confirmed: int = 0
     armed: bool = True
+    awaiting_path: bool = False  # rerouted; the hold is armed when the new path can deliver
+    one_way_s: float = 0.0  # the turbine's AKs' one-way delay (exponential average)
 
 
 class DrMonitor:
@@ -68,18 +77,33 @@ class DrMonitor:
     def track(self, wt: str) -> AckTrack:
         return self.tracks.setdefault(wt, AckTrack())
 
-    def start(self, wt: str, now: float, *, armed: bool = True) -> None:
+    def start(self, wt: str, now: float, *, armed: bool = True, await_path: bool = False) -> None:
         """A turbine was (re)routed at ``now``: a loss before ``now`` no longer counts.
 
         ``armed=False`` for a fresh ViSC start: until the first AK = 1 (communication established)
         the loss counts only from ``start_grace_s`` after the start, so the SDC's and the
-        turbine's start-up is not mistaken for a failure; after a reroute the hold restarts at once.
+        turbine's start-up is not mistaken for a failure. ``await_path`` after a reroute: the loss
+        counts from :meth:`path_ready` (at the latest :data:`READY_TIMEOUT_S` from now); without
+        it the hold restarts at once.
         """
         t = self.track(wt)
         t.t_loss, t.t_reported, t.fired, t.t_rearm, t.t_last_rx, t.t_last_sent = None, None, False, now, now, now
         t.armed = armed
+        t.awaiting_path = await_path and armed
         if not armed:
             t.t_rearm = now + self.start_grace_s
+        elif await_path:
+            t.t_rearm = now + READY_TIMEOUT_S
+
+    def path_ready(self, wt: str, now: float) -> None:
+        """Every switch of the turbine's new path acknowledged its flows at ``now``: the hold is
+        armed from when a packet sent now can have arrived (``now`` + the measured one-way delay)."""
+        t = self.tracks.get(wt)
+        if t is not None and t.awaiting_path:
+            t.awaiting_path = False
+            t.t_rearm = min(t.t_rearm, now + t.one_way_s)
+            if t.t_last_rx is not None:
+                t.t_last_rx = max(t.t_last_rx, t.t_rearm)
 
     def stop(self, wt: str) -> None:
         self.tracks.pop(wt, None)
@@ -94,6 +118,8 @@ class DrMonitor:
             return False  # duplicate, older, or a jump no second AK has confirmed (forged/mutated)
         if sent is None or not now - PLAUSIBLE_CLOCK_S <= sent <= now:
             sent = now
+        else:
+            t.one_way_s += ONE_WAY_WEIGHT * ((now - sent) - t.one_way_s)
         t.seq, t.ak, t.ctrl_rx, t.t_last_rx = seq, ak, ctrl_rx, now
         t.t_last_sent = sent if t.t_last_sent is None else max(t.t_last_sent, sent)
         if ak:

@@ -86,6 +86,15 @@ class GroupDelete:
     group_id: int
 
 
+@dataclass(frozen=True)
+class Barrier:
+    """An OpenFlow barrier after a path's changes on one switch: its reply says the switch has
+    them (``tag`` names the path version, see :mod:`sdn_app.routing`)."""
+
+    dpid: int
+    tag: str
+
+
 def base_flows(dpid: int, controller_vip: str) -> list[FlowAdd]:
     """What every OpenFlow switch gets on connect: table miss and the virtual controller IP to
     the controller (so unrequested traffic is seen, counted and dropped, never forwarded), IPv6

@@ -114,6 +114,15 @@ class Controller:
         return actions
 
     # ------------------------------------------------------------------ the timer
+    def barrier_reply(self, dpid: int, tag: str, now: float) -> list:
+        """A switch acknowledged a path's flows (the reply to a :class:`sdn_app.flows.Barrier`):
+        once every switch of it has, the turbine's DR hold is armed from then."""
+        name = self.routing.acknowledged(dpid, tag, now)
+        if name is not None:
+            self.state.dr.path_ready(name, now)
+            self.state.counters["paths_acknowledged"] += 1
+        return []
+
     def tick(self, now: float) -> list:
         """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state."""
         actions = self.guard.check(now)

@@ -48,6 +48,8 @@ def to_messages(action, datapath) -> list:
                                     actions=[_action(a, ofp, parser) for a in acts])
                    for watch, acts in action.buckets]
         return [parser.OFPGroupMod(datapath, ofp.OFPGC_ADD, ofp.OFPGT_FF, action.group_id, buckets)]
+    if isinstance(action, fl.Barrier):
+        return [parser.OFPBarrierRequest(datapath)]
     if isinstance(action, fl.GroupDelete):
         return [parser.OFPGroupMod(datapath, ofp.OFPGC_DELETE, ofp.OFPGT_FF, action.group_id, [])]
     raise TypeError(f"unknown action {action!r}")

@@ -64,7 +64,7 @@ class Recovery:
         if new_path is None and avoid:
             candidate = st.path_to(active.sdc, name)
             new_path = candidate if candidate != active.path else None
-        st.dr.start(name, now)
+        st.dr.start(name, now, await_path=True)
         if new_path is None:
             return self._no_path(name, cause, now, t_loss)
         streak = st.dr.tracks[name].streak if name in st.dr.tracks else 0
@@ -107,7 +107,7 @@ class Recovery:
             self.partitioned.pop(name)
             actions += self.routing.install(name, active.sdc, path, now)
             st.tables.set_comm(name, link_ok=True)
-            st.dr.start(name, now)
+            st.dr.start(name, now, await_path=True)
             st.counters["path_restored"] += 1
             st.event(now, "path_restored", wt=name, t_loss=t_loss, t_detect=now, new_path=path)
             actions += self.messenger.reengage(name, active.sdc, now)

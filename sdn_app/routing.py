@@ -13,6 +13,11 @@ from sdn_app.protection import protect_direction
 from sdn_app.state import ActivePath, SdnState
 
 
+def path_tag(name: str, version: int) -> str:
+    """The barrier tag of a turbine's path version (``wt1_1#2``)."""
+    return f"{name}#{version}"
+
+
 class Routing:
     """See the module docstring. ``is_dead`` tells whether an SDC is declared dead: no
     measurements are mirrored to a dead backup."""
@@ -122,10 +127,26 @@ class Routing:
         st.paths[name] = active
         self.t_flow_change = now
         st.counters["flow_mods"] += sum(isinstance(f, fl.FlowAdd) for f in flows)
-        actions = flows + self.messenger.learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
+        changed = sorted({f.dpid for f in flows if isinstance(f, (fl.FlowAdd, fl.GroupAdd))})
+        active.unacknowledged = set(changed)
+        barriers = [fl.Barrier(dpid, path_tag(name, version)) for dpid in changed]
+        actions = flows + barriers + self.messenger.learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
         if old is not None:
             actions += self._delete(old)
         return actions
+
+    def acknowledged(self, dpid: int, tag: str, now: float) -> str | None:
+        """A switch's barrier reply for path version ``tag``: the turbine's name once every switch
+        of that path has acknowledged (the path can carry packets from now on), else None."""
+        name, _, version = tag.rpartition("#")
+        active = self.state.paths.get(name)
+        if active is None or str(active.reroutes) != version or dpid not in active.unacknowledged:
+            return None  # an older version, a path since removed, or a duplicate reply
+        active.unacknowledged.discard(dpid)
+        if active.unacknowledged:
+            return None
+        active.ready_at = now
+        return name
 
     def _delete(self, active: ActivePath) -> list:
         self.state.counters["flow_deletes"] += len(active.dpids)

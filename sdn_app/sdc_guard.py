@@ -143,7 +143,7 @@ class SdcGuard:
             actions += self.routing.install(name, backup, path, now)
             actions += self.messenger.command(now, backup, wire.PORT_SDC, wire.Command.TAKEOVER, st.wid(name),
                                               sdc=backup)
-            st.dr.start(name, now)
+            st.dr.start(name, now, await_path=True)
         st.counters["sdc_failovers"] += 1
         st.event(now, "sdc_failover", sdc=dead, backup=backup, turbines=served, t_loss=t_last, t_detect=now)
         return actions

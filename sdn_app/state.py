@@ -34,6 +34,8 @@ class ActivePath:
     groups: list[tuple[int, int]] = field(default_factory=list)  # (dpid, group id) of FF groups
     installed: list = field(default_factory=list)  # the group and flow adds, for switch reconnects
     params: dict = field(default_factory=dict)  # the ViSC parameters of the request (re-sent on re-engage)
+    unacknowledged: set = field(default_factory=set)  # switches whose barrier reply is still awaited
+    ready_at: float | None = None  # when the last switch of the path acknowledged its flows
 
 
 class SdnState:

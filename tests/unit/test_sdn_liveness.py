@@ -272,6 +272,8 @@ def test_a_dr_after_the_turbine_fell_back_reengages_it():
     first = ctl.tick(1.642)  # a 41 ms loss: reroute only
     cmds = [decode_out(a)[2]["cmd"] for a in first if isinstance(a, fl.PacketOut) and not is_learn(a)]
     assert any(isinstance(a, fl.FlowAdd) for a in first) and cmds == []
+    for barrier in [a for a in first if isinstance(a, fl.Barrier)]:  # the switches acknowledge the new path
+        ctl.barrier_reply(barrier.dpid, barrier.tag, 1.645)
     _ak(ctl, "wt1_1", 4, 0, 0.160, 1.76)  # the loss goes on for 160 ms: the turbine has fallen back
     second = ctl.tick(1.761)
     cmds = {decode_out(a)[2]["cmd"] for a in second if isinstance(a, fl.PacketOut) and not is_learn(a)}

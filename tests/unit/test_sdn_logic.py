@@ -214,7 +214,7 @@ def test_actions_become_serialisable_openflow13_messages(ctl):
             msg.serialize()
             assert msg.buf[0] == ofproto_v1_3.OFP_VERSION
             kinds.add(type(msg).__name__)
-    assert kinds == {"OFPFlowMod", "OFPPacketOut"}
+    assert kinds == {"OFPFlowMod", "OFPPacketOut", "OFPBarrierRequest"}  # a barrier after each switch's flows
     miss = to_messages(fl.FlowAdd(1, 0, {}, (fl.Output(fl.TO_CONTROLLER),)), dp)[0]
     assert miss.instructions[0].actions[0].port == ofproto_v1_3.OFPP_CONTROLLER
 

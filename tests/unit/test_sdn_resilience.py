@@ -236,3 +236,79 @@ def test_late_heartbeats_while_turbines_are_served_are_not_a_death():
     ak(ctl, 19, 0, 0.025, 1.38)  # 25 ms without control packets, sdc1 silent for 80 ms: dead
     heartbeat(ctl, "sdc2", 20, 1.38)
     assert ctl.tick(1.381) and ctl.active_sdc == "sdc2"
+
+
+def _barriers(actions):
+    return [a for a in actions if isinstance(a, fl.Barrier)]
+
+
+def _lose_control(ctl, seq0, since, until, start=None, now_step=0.010):
+    """AKs = 0 every 10 ms after ``start`` (default ``since``) until ``until``, each reporting the
+    loss since ``since`` (the turbine's own report)."""
+    seq, now = seq0, (since if start is None else start) + now_step
+    while now <= until + 1e-9:
+        seq += 1
+        ak(ctl, seq, 0, now - since, round(now, 6))
+        now += now_step
+    return seq
+
+
+def test_every_switch_of_a_new_path_gets_a_barrier_and_a_late_reply_is_not_a_second_dr():
+    """On a loaded machine the new path takes 60 ms to be acknowledged: the hold counts from then
+    (plus the measured one-way delay), so the same failure does not cause a second reroute."""
+    ctl = Controller(make_config(backup_sdc=None), now=0.0)
+    first_path = visc_on(ctl, 1.0)
+    assert {b.dpid for b in _barriers(first_path)} == {a.dpid for a in first_path if isinstance(a, fl.FlowAdd)}
+    for b in _barriers(first_path):
+        ctl.barrier_reply(b.dpid, b.tag, 1.01)
+    ak(ctl, 1, 1, 0.0, 1.5)
+    seq = _lose_control(ctl, 1, 1.508, 1.549)
+    rerouted = ctl.tick(1.550)
+    barriers = _barriers(rerouted)
+    new_path = ctl.paths["wt1_1"]
+    assert {b.dpid for b in barriers} == {ctl.dpids[n] for n in new_path.path if n in ctl.dpids}
+    assert all(b.tag == f"wt1_1#{new_path.reroutes}" for b in barriers)
+    # the turbine keeps reporting the loss while the switches are slow to install the new path
+    seq = _lose_control(ctl, seq, 1.508, 1.600, start=1.549)
+    assert [e for e in ctl.take_events() if e["type"] == "dr"][0]["t_detect"] == pytest.approx(1.55)
+    assert ctl.tick(1.600) == []  # 50 ms after the reroute: without readiness this was a second DR
+    for b in barriers[:-1]:
+        ctl.barrier_reply(b.dpid, b.tag, 1.610)
+        ctl.barrier_reply(b.dpid, b.tag, 1.610)  # a duplicate reply changes nothing
+    ctl.barrier_reply(barriers[0].dpid, "wt1_1#0", 1.611)  # a reply for the old path version neither
+    assert ctl.tick(1.615) == [] and new_path.ready_at is None
+    ctl.barrier_reply(barriers[-1].dpid, barriers[-1].tag, 1.612)
+    assert new_path.ready_at == pytest.approx(1.612)
+    ak(ctl, seq + 1, 1, 0.0005, 1.618)  # the new path delivers: no DR at all
+    assert ctl.tick(1.700) == [] and not [e for e in ctl.take_events() if e["type"] == "dr"]
+
+
+def test_a_new_path_that_does_not_deliver_is_detected_after_the_hold_from_its_readiness():
+    ctl = Controller(make_config(backup_sdc=None), now=0.0)
+    visc_on(ctl, 1.0)
+    ak(ctl, 1, 1, 0.0, 1.5)
+    seq = _lose_control(ctl, 1, 1.508, 1.549)
+    barriers = _barriers(ctl.tick(1.550))
+    for b in barriers:
+        ctl.barrier_reply(b.dpid, b.tag, 1.560)
+    ctl.take_events()
+    # control does not come back over the new path: the second DR waits the (doubled) hold from 1.560
+    seq = _lose_control(ctl, seq, 1.508, 1.60, start=1.549)
+    assert ctl.tick(1.60) == []
+    _lose_control(ctl, seq, 1.508, 1.66, start=1.60)
+    assert any(isinstance(a, fl.FlowAdd) for a in ctl.tick(1.66))
+    (dr,) = [e for e in ctl.take_events() if e["type"] == "dr"]
+    assert dr["t_loss"] >= 1.560
+
+
+def test_without_any_acknowledgement_the_hold_is_armed_after_the_ready_timeout():
+    from sdn_app.dr import READY_TIMEOUT_S, DrMonitor
+
+    m = DrMonitor(hold_s=HOLD, ak_timeout_s=0.030)
+    m.start("wt1_1", now=0.0)
+    m.on_ak("wt1_1", 1, 1, 1, 0.0, now=1.0, sent=0.998)
+    assert m.tracks["wt1_1"].one_way_s == pytest.approx(0.2 * 0.002)  # exponential average of the AKs' delay
+    m.start("wt1_1", now=1.0, await_path=True)  # rerouted, no barrier reply ever comes (switch gone)
+    assert m.loss_since("wt1_1", now=1.0 + READY_TIMEOUT_S - 1e-3) is None
+    m.on_ak("wt1_1", 2, 0, 1, 0.2, now=1.2, sent=1.2)
+    assert m.loss_since("wt1_1", now=1.2) == pytest.approx(1.0 + READY_TIMEOUT_S)
