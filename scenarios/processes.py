@@ -60,6 +60,10 @@ class Processes:
         self.specs[name] = (args, host, stdin)
         log = open(self.out / f"{name}.log", mode)  # noqa: SIM115 - owned by the process
         env = dict(os.environ, PYTHONUNBUFFERED="1")
+        # one BLAS thread per service: a multi-threaded OpenBLAS call (the plant refactorising its
+        # network at a fault) waits for its worker threads on a busy 2-core machine, 5-20 ms instead
+        # of ~1 ms, longer than a step at k = 8 (docs/sdc.md, through the network)
+        env.setdefault("OPENBLAS_NUM_THREADS", "1")
         if host is None:
             proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
                                     start_new_session=True)
