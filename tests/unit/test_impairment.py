@@ -191,3 +191,11 @@ def test_a_valid_impaired_scenario_loads(tmp_path):
                                         "impairable: all\ntimeline:\n  - {t: 1, do: impair, a: s1, b: s2, loss: 0.1}\n"
                                         "  - {t: 2, do: clear_impairments}\n"))
     assert sc.links[0].bw_mbps == 100 and sc.impairable == "all" and sc.timeline[1].a is None
+
+
+def test_cleanup_knows_the_elements():
+    from sdvisc import cleanup
+
+    assert cleanup.LINK_RE.match("imp1-eth0") and cleanup.LINK_RE.match("imp12")  # a crash mid-build leaves veths
+    assert not cleanup.LINK_RE.match("impish")
+    assert any("-m sdvisc.impair_node" in marker for marker in cleanup.PROCESS_MARKERS)
