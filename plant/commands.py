@@ -2,7 +2,8 @@
 load, fault, SCR, condenser, plugs, battery (a part of :class:`plant.sim.Plant`, a mixin).
 
 Every command invalidates the cached evaluation of the present state (``_cache``), which also
-makes the next step re-evaluate the held slow terms (docs/plant.md, Integration). Refactorising
+makes the next step re-evaluate the held slow terms (docs/plant.md, Integration); new remote
+references (``apply_remote``, every step of a remote turbine) invalidate the evaluation only. Refactorising
 commands (fault, SCR, condenser, plug) go through ``_refresh``.
 """
 
@@ -26,7 +27,15 @@ class Commands:
         if i_ref_d is not None and i_ref_q is not None:
             self.tb.i_hold[idx] = np.asarray(i_ref_d) + 1j * np.asarray(i_ref_q)
         self.tb.last_rx_step[idx] = self.k
-        self._cache = None
+        self._references_changed()
+
+    def _references_changed(self) -> None:
+        """New remote references change only the converter voltages of the present evaluation: it
+        is made again, but the held slow terms and the operating values stay (they do not depend on
+        the references), as after a step; a command since the last evaluation still counts."""
+        if self._cache is not None:
+            self._cache = None
+            self._slow_keep = True
 
     def _check_fallback(self) -> None:
         """Remote turbines whose references stopped (fall-back) or whose current is too high (trip)
