@@ -20,7 +20,8 @@ def _cmd_check(args) -> int:
             print(exc, file=sys.stderr)
             status = 1
             continue
-        print(f"{path}: ok ({sc.name}: {sc.topology.name}, {sc.duration_s} s, {len(sc.timeline)} events)")
+        duration = f"{sc.duration_s} s" if sc.duration_s is not None else "open-ended (--cli only)"
+        print(f"{path}: ok ({sc.name}: {sc.topology.name}, {duration}, {len(sc.timeline)} events)")
     return status
 
 

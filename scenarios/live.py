@@ -127,6 +127,7 @@ class Session:
             if cli.eof and self.cli_duration_s is not None and not self.ended.is_set():
                 print(f"sdvisc: stdin closed; the session goes on until t = {self.cli_duration_s:g} s", flush=True)
                 self.ended.wait()
+            print(f"sdvisc: session ended at t = {self.now():.2f} s; stopping the services and the network …", flush=True)
         finally:
             self.stop_requested.set()
             if player.ident:
