@@ -69,8 +69,9 @@ def _affected(fault: dict, plant_turbines: dict, t0: float, t_f: float) -> list[
 
 
 def aggregate(records: list[dict], step_s: float) -> dict:
-    """Percentiles over *all* faults (a fault without a pause above two samples counts as 2·Ts, an
-    upper bound), the count of faults with no interruption above 2·Ts, and the unrecovered count."""
+    """Percentiles over *all* records (one per fault and affected turbine: ``faults`` counts those
+    pairs; a record without a pause above two samples counts as 2·Ts, an upper bound), the count
+    with no interruption above 2·Ts, and the unrecovered count."""
     values = [r["interruption_ms"] if r["interruption_ms"] is not None else 2 * step_s * 1e3
               for r in records if r["recovered"]]
     out = {"faults": len(records), "no_interruption_above_2ts": sum(not r["above_2ts"] for r in records),
