@@ -21,6 +21,7 @@ virtual time (figures in simulated ms; the floor stays wall ms). Needs root; ~10
 
     python benchmarks/recovery.py [--failures 16] [--failover-runs 20] [--controller-failover-runs 5]
                                   [--time-scale K|auto] [--out DIR]
+    python benchmarks/recovery.py --all-links [--time-scale K]   # every single-link failure, AK/DR
 """
 
 from __future__ import annotations
@@ -41,6 +42,8 @@ from scenario_runs import ROOT, run_file  # benchmarks/scenario_runs.py
 from scenario_runs import run_dict as run
 
 from scenarios.interruptions import aggregate
+from topologies import topos
+from topologies.base import describe
 
 GOALS = {"dr_p95_ms": 50.0, "ff_over_floor": 1.5, "dr_excess_ms": 5.0, "failover_p95_ms": 60.0}
 DR_HOLD_MS = 40.0  # the scenarios' dr_hold_s (SdnSpec default)
@@ -66,6 +69,53 @@ def failure_scenario(name: str, topo: dict, turbines: list[str], sdn: dict, fail
         t += 0.6
     return {"name": name, "topology": topo, "duration_s": round(t + 0.3, 3), "plant": {"model": "minimal"},
             "sdc": {"method": "tustin", "backup": False}, "sdn": sdn, "timeline": timeline}
+
+
+ALL_LINKS_TOPOLOGIES = {
+    "paper": {"name": "paper", "clusters": 5, "turbines": 2},
+    "farm_compact": {"name": "farm", "clusters": 5, "turbines": 10, "layout": "compact"},
+    "farm_tower": {"name": "farm", "clusters": 5, "turbines": 10, "layout": "tower"},
+}
+
+
+def all_links_scenario(name: str, topo: dict) -> dict:
+    """One ViSC turbine per cluster; every switch-to-switch link of the topology fails in turn
+    (0.3 s down, then up again), with AK/DR."""
+    params = {k: v for k, v in topo.items() if k != "name"}
+    desc = describe(topos[topo["name"]](**params))
+    timeline = [{"t": 0.3 + 0.02 * c, "do": "visc_on", "wt": f"wt{c}_1"} for c in range(1, topo["clusters"] + 1)]
+    t = 1.0
+    for link in desc["links"]:
+        timeline += [{"t": round(t, 3), "do": "link_down", "a": link["a"], "b": link["b"]},
+                     {"t": round(t + 0.3, 3), "do": "link_up", "a": link["a"], "b": link["b"]}]
+        t += 0.6
+    return {"name": name, "topology": topo, "duration_s": round(t + 0.2, 3), "plant": {"model": "minimal"},
+            "sdc": {"method": "tustin", "backup": False}, "sdn": MECHANISMS["dr"], "timeline": timeline}
+
+
+def all_links(work: Path, scale: tuple) -> dict:
+    """Every single-link failure of each topology: per link the turbines it interrupted, whether
+    each got control back, the longest interruption; the unrecovered count (goal 0)."""
+    out = {}
+    for topo_name, topo in ALL_LINKS_TOPOLOGIES.items():
+        summary = run(all_links_scenario(f"all_links_{topo_name}", topo), work, *scale)
+        per_link = {}
+        for r in summary["interruptions"]:
+            entry = per_link.setdefault("-".join(r["link"]), {"turbines": [], "unrecovered": [], "restored_ms": []})
+            entry["turbines"].append(r["wt"])
+            if r["recovered"]:
+                entry["restored_ms"].append(r["restored_ms"])
+            else:
+                entry["unrecovered"].append(r["wt"])
+        faults = [e for e in summary["events"] if e.get("source") == "timeline" and e["type"] == "link_down"]
+        for e in faults:
+            per_link.setdefault(f"{e['a']}-{e['b']}", {"turbines": [], "unrecovered": [], "restored_ms": []})
+        for entry in per_link.values():
+            entry["max_restored_ms"] = max(entry.pop("restored_ms"), default=None)
+        out[topo_name] = {"links": len(faults), "unrecovered": sum(len(e["unrecovered"]) for e in per_link.values()),
+                          "time_scale": summary["time"]["time_scale"], "per_link": per_link}
+    out["unrecovered"] = sum(v["unrecovered"] for v in out.values() if isinstance(v, dict))
+    return out
 
 
 def failover_scenario(name: str) -> dict:
@@ -99,6 +149,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--floor-repeat", type=int, default=20, help="repetitions of the Open vSwitch floor")
     parser.add_argument("--time-scale", default="1", help="K or auto: run the scenarios in virtual time")
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
+    parser.add_argument("--all-links", action="store_true",
+                        help="only the sweep: every single-link failure of paper, farm compact and farm tower, "
+                             "one ViSC turbine per cluster, AK/DR; prints the unrecovered count and per-link times")
     parser.add_argument("--soak-runs", type=int, default=0,
                         help="also this many fault-free runs per case of benchmarks/liveness_soak.py (false positives)")
     parser.add_argument("--soak-duration", type=float, default=60.0)
@@ -110,6 +163,13 @@ def main(argv: list[str] | None = None) -> int:
     work.mkdir(parents=True, exist_ok=True)
     scale = ("--time-scale", args.time_scale)
     started = time.time()
+    if args.all_links:
+        load_before = os.getloadavg()
+        result = {"benchmark": "recovery --all-links", "time_scale": args.time_scale, **all_links(work, scale),
+                  "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_before": load_before,
+                              "load_after": os.getloadavg()}, "wall_s": round(time.time() - started, 1)}
+        print(json.dumps(result, indent=1))
+        return 0
     load_before = os.getloadavg()
     floor = ovs_latency.measure(args.floor_repeat) if args.floor_repeat else None
     result: dict = {"benchmark": "recovery", "failures_per_run": args.failures, "time_scale": args.time_scale,
