@@ -38,6 +38,8 @@ MEAS_ABS_MAX_PU = 100.0
 """Largest magnitude of a per-unit measurement (voltage, current, power, DC voltage, frequency)."""
 T_SIM_MAX_S = 1e7
 """Largest plausible simulation time in a MEAS, s (only garbage is beyond it)."""
+CHECKED_ROWS = ("t_sim", *MEAS_FIELDS)
+"""The MEAS values the range check reads, in this order (consecutive words of the datagram)."""
 CONFIRM_WINDOW = 32
 """A jump is confirmed by a later datagram at most this many samples after it."""
 
@@ -67,14 +69,18 @@ def out_of_range_rows(records) -> np.ndarray:
     """:func:`meas_out_of_range` for every row of a decoded MEAS batch at once (boolean mask);
     ``records``: a MEAS record array or a dict of columns."""
     if isinstance(records, np.ndarray):  # t_sim and the measurements are consecutive words: one matrix
-        rows = float_rows(records, ("t_sim", *MEAS_FIELDS))
-        t_sim = rows[0]
-        return (t_sim < 0.0) | (t_sim > T_SIM_MAX_S) | (np.abs(rows[1:]) > MEAS_ABS_MAX_PU).any(axis=0)
+        return out_of_range_matrix(float_rows(records, CHECKED_ROWS))
     t_sim = records["t_sim"]
     bad = (t_sim < 0.0) | (t_sim > T_SIM_MAX_S)
     for k in MEAS_FIELDS:
         bad |= np.abs(records[k]) > MEAS_ABS_MAX_PU
     return bad
+
+
+def out_of_range_matrix(rows: np.ndarray) -> np.ndarray:
+    """:func:`out_of_range_rows` of a batch given as its :data:`CHECKED_ROWS` matrix (one column per MEAS)."""
+    t_sim = rows[0]
+    return (t_sim < 0.0) | (t_sim > T_SIM_MAX_S) | (np.abs(rows[1:]) > MEAS_ABS_MAX_PU).any(axis=0)
 
 
 def bad_params(values: dict) -> list[str]:

@@ -22,15 +22,17 @@ FLAG_BACKUP = 2
 """``CTRL.flags`` bit 1: the answer comes from a backup SDC."""
 
 
-def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray,
-               backup: bool = False) -> tuple[np.ndarray, dict[str, np.ndarray]]:
+def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray, backup: bool = False,
+               meas_rows: np.ndarray | None = None) -> tuple[np.ndarray, dict[str, np.ndarray]]:
     """Advance the controllers in ``slots`` by one sample each on ``meas`` (MEAS records, row r for
     ``slots[r]``: e.g. rows of :func:`sdvisc.wire_batch.decode_batch`'s array).
 
     Returns (valid, ctrl): ``valid[r]`` is True where slot r gave a usable output (started, finite
     measurements and outputs); ``ctrl`` holds the CTRL words of the valid rows, in row order: the
-    :data:`CTRL_OUTPUTS`, ``wt``, ``meas_seq`` and ``flags`` -- all but the CTRL's own ``seq``."""
-    out, valid = bank.step(slots, float_rows(meas, MEAS_FIELDS))
+    :data:`CTRL_OUTPUTS`, ``wt``, ``meas_seq`` and ``flags`` -- all but the CTRL's own ``seq``.
+    ``meas_rows``: ``meas``' MEAS_FIELDS as a float matrix if the caller has it already
+    (:func:`sdvisc.wire_batch.float_rows`)."""
+    out, valid = bank.step(slots, float_rows(meas, MEAS_FIELDS) if meas_rows is None else meas_rows)
     if valid.all():  # the usual case: every row answered, no selection
         ctrl = {k: out[k] for k in CTRL_OUTPUTS}
         ctrl.update(wt=meas["wt"], meas_seq=meas["seq"], flags=out["limited"].astype(int))  # FLAG_LIMITED: bit 0

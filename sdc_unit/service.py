@@ -57,7 +57,7 @@ from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
 from sdvisc.vocabulary import MEAS_FIELDS, REQUEST_PARAM_WORDS
-from sdvisc.wire_batch import decode_batch, is_type, record_dtype
+from sdvisc.wire_batch import decode_batch, float_rows, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
 ADMIT_WORDS = ("hdr_sec", "hdr_nsec", "wt", "seq", "t_sim")
@@ -99,6 +99,7 @@ class SdcService:
         self.bank = ControllerBank(capacity=cfg.capacity + 1, step_s=cfg.step_s, method=cfg.method, dtype=cfg.dtype)
         self.rx_stats = wire.DecodeStats()
         self.rx_records = np.zeros(0, dtype=record_dtype(wire.MsgType.MEAS, self.header))
+        self.rx_rows = np.zeros((len(admission.CHECKED_ROWS), 0))  # their checked values (float_rows)
         self.hb_seq = 0
         self.unexpected_rx = 0
         self.rejected: Counter = Counter()  # by reason, see sdc_unit.admission (wire reasons: rx_wire)
@@ -249,7 +250,8 @@ class SdcService:
         self.rx_records = rec
         # the header's send time and the admission's words of every row, as Python values, in one call
         words = rec[list(ADMIT_WORDS if self.header else ADMIT_WORDS[2:])].tolist()
-        out_of_range = admission.out_of_range_rows(rec).tolist()  # one vectorised check per batch
+        self.rx_rows = float_rows(rec, admission.CHECKED_ROWS)  # t_sim, then the MEAS_FIELDS
+        out_of_range = admission.out_of_range_matrix(self.rx_rows).tolist()  # one vectorised check per batch
         sources = index.tolist()
         for j, row in enumerate(words):
             wid, seq, t_sim = row[-3:]
@@ -302,9 +304,10 @@ class SdcService:
         insts = [self.instances[w] for w in newest]
         rows = [newest[i.wid][0] for i in insts]
         slots = np.array([i.slot for i in insts], dtype=np.intp)
-        rec = self.rx_records
-        meas = rec if rows == list(range(len(rec))) else rec[rows]  # usually every row, in order
-        valid, ctrl = step_round(self.bank, slots, meas, backup=self.role == "backup")
+        rec, meas_rows = self.rx_records, self.rx_rows[1:]
+        if rows != list(range(len(rec))):  # usually every row, in order
+            rec, meas_rows = rec[rows], meas_rows[:, rows]
+        valid, ctrl = step_round(self.bank, slots, rec, backup=self.role == "backup", meas_rows=meas_rows)
         sent = []
         for inst, ok in zip(insts, valid.tolist()):
             if ok:
