@@ -39,7 +39,9 @@ def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, st
     for fault in faults:
         t_f = fault.get("t_effective", fault["t"])
         later = [t for t in times if t > t_f]
-        end = min([t_f + window_s, duration_s] + later[:1])
+        # a pause whose last packet came just before the next fault (within the time a pause needs to
+        # be one) is the next fault's
+        end = min([t_f + window_s, duration_s] + [t - GAP_MIN_STEPS * step_s for t in later[:1]])
         for wt in _affected(fault, plant_turbines, t0, t_f):
             stats = plant_turbines[wt]
             gaps = [(a - t0, b - t0) for a, b in stats.get("ctrl_gaps_wall", [])]

@@ -47,6 +47,10 @@ def test_the_longest_pause_before_control_is_back_for_good_and_before_the_next_f
     stats = {"wt1_1": turbine([(2.0011, 2.046), (2.06, 2.063), (2.5011, 2.53)])}
     recs = interruptions([link_down(2.0, ["wt1_1"]), link_down(2.5, ["wt1_1"])], stats, T0, TS, duration_s=10.0)
     assert [r["interruption_ms"] for r in recs] == [pytest.approx(44.9), pytest.approx(28.9)]
+    # the next fault's pause begins with the last packet before it, a moment before its ioctl
+    stats = {"wt1_1": turbine([(2.0011, 2.046), (2.5005, 2.545)])}
+    recs = interruptions([link_down(2.0, ["wt1_1"]), link_down(2.5, ["wt1_1"])], stats, T0, TS, duration_s=10.0)
+    assert [r["restored_ms"] for r in recs] == [pytest.approx(45.0), pytest.approx(44.0)]
 
 
 def test_stopped_for_good_is_unrecovered_but_the_runs_end_is_not_a_fault():
