@@ -114,7 +114,11 @@ class Session:
         notifier = threading.Thread(target=self._notify_loop, name="sdvisc-feedback", daemon=True)
         try:
             if self.web_port is not None:
-                self.web = LiveView(run, self, self.web_port).start()
+                try:
+                    self.web = LiveView(run, self, self.web_port).start()
+                except OSError as exc:
+                    raise RunError(f"--web {self.web_port}: cannot listen on 127.0.0.1:{self.web_port} ({exc.strerror}); "
+                                   "choose another port") from exc
                 print(f"sdvisc: live view at {self.web.url} (this machine only)", flush=True)
             sc = run.scenario
             plays = f"the timeline plays until t = {sc.duration_s:g} s, then " if sc.duration_s else ""

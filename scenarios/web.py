@@ -16,6 +16,7 @@ import ipaddress
 import json
 import threading
 import time
+from collections import deque
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from pathlib import Path
 
@@ -24,6 +25,7 @@ STATIC = {"index.html": "text/html; charset=utf-8", "live.js": "text/javascript;
           "live.css": "text/css; charset=utf-8", "uPlot.iife.min.js": "text/javascript; charset=utf-8",
           "uPlot.min.css": "text/css; charset=utf-8"}
 UPDATE_S = 0.1  # wall seconds between two snapshots (the page asks for at least every 200 ms)
+HISTORY_POINTS = 3000  # plot points kept for a page that connects later (5 min of wall time)
 EVENTS_PER_UPDATE = 200
 
 
@@ -154,10 +156,11 @@ class _Handler(BaseHTTPRequestHandler):
         self.end_headers()
         self.close_connection = True
         cursor = {"events": max(0, view.events_count() - EVENTS_PER_UPDATE), "lines": 0}
-        previous = None
         try:
+            first = True
             while not view.stopping.is_set():
-                data, previous = view.update(previous, cursor)
+                data = view.update(cursor, history=first)
+                first = False
                 self.wfile.write(f"data: {json.dumps(data)}\n\n".encode())
                 self.wfile.flush()
                 if data.get("ended"):
@@ -179,9 +182,14 @@ class LiveView:
         self.port = self.server.server_address[1]
         self.url = f"http://127.0.0.1:{self.port}/"
         self._thread = threading.Thread(target=self.server.serve_forever, name="sdvisc-web", daemon=True)
+        self._collector = threading.Thread(target=self._collect, name="sdvisc-web-collect", daemon=True)
         self._topology = None
+        self._last_status: dict = {}
+        self.latest: dict = {}
+        self.history: deque = deque(maxlen=HISTORY_POINTS)  # plot points of the last HISTORY_POINTS snapshots
 
     def start(self) -> LiveView:
+        self._collector.start()
         self._thread.start()
         return self
 
@@ -189,6 +197,28 @@ class LiveView:
         self.stopping.set()
         self.server.shutdown()
         self.server.server_close()
+
+    def _collect(self) -> None:
+        """One snapshot every UPDATE_S for every client (one read of the state files), and the
+        plot history a page gets when it connects."""
+        previous = None
+        while not self.stopping.is_set():
+            try:
+                self.collect_once(previous)
+            except Exception as exc:  # noqa: BLE001 - a bad state file read must not freeze the page
+                self.latest = dict(self.latest, error=f"{type(exc).__name__}: {exc}")
+            previous = self._last_status or previous
+            time.sleep(UPDATE_S)
+
+    def collect_once(self, previous: dict | None) -> dict:
+        run = self.run
+        status = run.plant_status() or {}
+        snap = snapshot(self.session.now(), status, previous, run.sdn_state() or {}, run.links_down)
+        self._last_status = status
+        if snap["turbines"] and (not self.history or snap["t_sim"] != self.history[-1]["t_sim"]):
+            self.history.append({"t_sim": snap["t_sim"], "turbines": snap["turbines"]})
+        self.latest = snap
+        return snap
 
     def topology(self) -> dict:
         if self._topology is None:
@@ -200,12 +230,13 @@ class LiveView:
     def events_count(self) -> int:
         return len(self.session.events)
 
-    def update(self, previous: dict | None, cursor: dict) -> tuple[dict, dict]:
-        """One snapshot for a client whose last plant status was ``previous``; ``cursor``: how
-        many events and feedback lines it has had."""
-        run, session = self.run, self.session
-        status = run.plant_status() or {}
-        data = snapshot(session.now(), status, previous, run.sdn_state() or {}, run.links_down)
+    def update(self, cursor: dict, history: bool = False) -> dict:
+        """The latest snapshot for a client; ``cursor``: how many events and feedback lines it
+        has had; ``history``: with the plot points so far (a page that just connected)."""
+        session = self.session
+        data = dict(self.latest or self.collect_once(None))
+        if history:
+            data["history"] = list(self.history)
         events = session.events
         start = min(cursor["events"], len(events))
         data["events"] = events[start:start + EVENTS_PER_UPDATE]
@@ -213,4 +244,4 @@ class LiveView:
         data["lines"] = session.lines[cursor["lines"]:]
         cursor["lines"] += len(data["lines"])
         data["ended"] = session.ended.is_set()
-        return data, (status if status else previous)
+        return data

@@ -62,7 +62,7 @@ function makeCharts() {
   }
 }
 
-function updatePlots(snap) {
+function updatePlots(snap, redraw = true) {
   const names = Object.keys(snap.turbines).sort();
   for (const wt of names) {
     if (!series[wt]) {
@@ -72,16 +72,18 @@ function updatePlots(snap) {
   }
   const known = Object.keys(series).filter(k => k !== "t");
   const t = snap.t_sim;
-  if (t === null || t === undefined || (series.t.length && t <= series.t[series.t.length - 1])) return;
-  series.t.push(t);
-  for (const wt of known) for (const [k] of PLOTS) {
-    const row = snap.turbines[wt];
-    series[wt][k].push(row && row[k] !== null && row[k] !== undefined ? row[k] : null);
+  if (t !== null && t !== undefined && (!series.t.length || t > series.t[series.t.length - 1])) {
+    series.t.push(t);
+    for (const wt of known) for (const [k] of PLOTS) {
+      const row = snap.turbines[wt];
+      series[wt][k].push(row && row[k] !== null && row[k] !== undefined ? row[k] : null);
+    }
+    while (series.t.length && series.t[0] < t - WINDOW_S) {
+      series.t.shift();
+      for (const wt of known) for (const [k] of PLOTS) series[wt][k].shift();
+    }
   }
-  while (series.t.length && series.t[0] < t - WINDOW_S) {
-    series.t.shift();
-    for (const wt of known) for (const [k] of PLOTS) series[wt][k].shift();
-  }
+  if (!redraw) return;
   if (known.join() !== visc.join()) { visc = known; makeCharts(); }
   document.getElementById("visc-list").textContent = names.length ? "(" + names.join(", ") + ")" : "(none now)";
   for (const [k] of PLOTS) charts[k] && charts[k].setData([series.t, ...visc.map(wt => series[wt][k])]);
@@ -116,8 +118,11 @@ function updateTables(snap) {
     const tr = document.createElement("tr");
     tr.id = "row-" + wt;
     if (snap.turbines[wt]) tr.className = "visc";
+    const live = snap.turbines[wt] || {};
+    const num = (x, digits) => x === null || x === undefined ? "–" : x.toFixed(digits);
     for (const [cls, text] of [["", wt], ["", a.ip], ["", `${a.switch}:${a.port}`], ["", snap.T2[wt] || "?"],
-                                ["", snap.T3[wt] || "?"], ["path", path ? path.join("-") : "–"]]) {
+                                ["", snap.T3[wt] || "?"], ["", num(live.ctrl_per_s, 0)], ["", num(live.ctrl_delay_ms, 2)],
+                                ["path", path ? path.join("-") : "–"]]) {
       const td = document.createElement("td");
       if (cls) { td.className = cls; td.id = "path-" + wt; }
       td.textContent = text;
@@ -150,6 +155,7 @@ function apply(snap) {
   document.getElementById("t").textContent = snap.t_sim !== null && snap.t_sim !== undefined ? snap.t_sim.toFixed(2) : "–";
   document.getElementById("late").textContent = snap.late_steps;
   document.getElementById("active-sdc").textContent = snap.active_sdc || "–";
+  for (const point of snap.history || []) updatePlots(point, false);  // what happened before the page opened
   updatePlots(snap);
   updateNetwork(snap);
   updateTables(snap);

@@ -146,8 +146,10 @@ def test_live_view_answers_loopback_only(own_namespace):
     clients on the loopback, and only requests naming 127.0.0.1/localhost (no DNS rebinding)."""
     from scenarios.web import LiveView
 
-    class Stub:  # no run needed: the page itself is static
+    class Stub:  # a run and a session with nothing in them: the page itself is static
         links_down, events, lines, ended = set(), [], [], threading.Event()
+        plant_status = sdn_state = staticmethod(dict)
+        now = staticmethod(float)
 
     port = free_port()
     view = LiveView(Stub(), Stub(), port, host="0.0.0.0").start()

@@ -193,3 +193,40 @@ def test_snapshot_has_paths_down_links_and_rates_of_the_visc_turbines_only():
 def test_only_loopback_clients_are_served():
     assert _is_loopback("127.0.0.1") and _is_loopback("::1") and _is_loopback("127.0.0.2")
     assert not _is_loopback("10.0.1.1") and not _is_loopback("192.168.1.5") and not _is_loopback("not an address")
+
+
+def test_live_view_updates_carry_new_events_and_lines_once_and_the_history_on_connect():
+    import threading
+
+    from scenarios.web import LiveView
+
+    statuses = iter([{"t_sim": t, "turbines": {"wt1_1": {"streaming": True, "ctrl_rx": int(1500 * t), "meas_tx": 0,
+                                                         "v": 1.0, "q": 0.0, "f_hz": 50.0}}} for t in (1.0, 1.1, 1.2)])
+
+    class Run:
+        links_down: set = set()
+        plant_status = staticmethod(lambda: next(statuses))
+        sdn_state = staticmethod(dict)
+
+    class Session:
+        events = [{"t": 1.0, "type": "a"}, {"t": 1.05, "type": "b"}]
+        lines = ["one"]
+        ended = threading.Event()
+        now = staticmethod(lambda: 1.2)
+
+    view = LiveView(Run(), Session(), 0)  # not started: no thread, no socket served
+    try:
+        previous = None
+        for _ in range(3):
+            view.collect_once(previous)
+            previous = view._last_status
+        cursor = {"events": 0, "lines": 0}
+        first = view.update(cursor, history=True)
+        assert [p["t_sim"] for p in first["history"]] == [1.0, 1.1, 1.2]
+        assert first["turbines"]["wt1_1"]["ctrl_per_s"] == pytest.approx(150 / 0.1)
+        assert [e["type"] for e in first["events"]] == ["a", "b"] and first["lines"] == ["one"]
+        Session.events.append({"t": 1.2, "type": "c"})
+        second = view.update(cursor)
+        assert "history" not in second and [e["type"] for e in second["events"]] == ["c"] and second["lines"] == []
+    finally:
+        view.server.server_close()
