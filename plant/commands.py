@@ -44,9 +44,14 @@ class Commands:
         rem = self._mode_info()[2]
         if not rem.size:
             return
-        i = self.X[T.IF * self.n + rem]  # (turbine.IF row of the state, layout.py)
-        over = rem[np.abs(i) > self.params.turbine.trip_current]
-        late = rem[(self.k - tb.last_rx_step[rem]) * self.step_s >= self.params.turbine.remote_loss_fallback_s]
+        i_mag = np.abs(self.X[T.IF * self.n + rem])  # (turbine.IF row of the state, layout.py)
+        rx_step = tb.last_rx_step[rem]
+        tp = self.params.turbine
+        if not (i_mag.max() > tp.trip_current
+                or tb.fallback_enabled and (self.k - rx_step.min()) * self.step_s >= tp.remote_loss_fallback_s):
+            return  # the usual case, decided on the largest current and the oldest reference
+        over = rem[i_mag > tp.trip_current]
+        late = rem[(self.k - rx_step) * self.step_s >= tp.remote_loss_fallback_s]
         if not tb.fallback_enabled:
             late = late[:0]
         if late.size and over.size:  # (late and over are sorted and unique already)
