@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import subprocess
 import sys
@@ -84,8 +85,25 @@ def stats(values: list[float]) -> dict:
                 "max": round(float(v.max()), 3), "min": round(float(v.min()), 3)} if len(v) else {})}
 
 
-def measure(repeat: int = 20, load: int = 0) -> dict:
+PORT_TYPES = ("system", "afxdp-nonpmd", "afxdp")
+
+
+def ensure_bpffs() -> None:
+    """AF_XDP ports need the BPF file system (mounted once per boot)."""
+    if subprocess.run(["mountpoint", "-q", "/sys/fs/bpf"]).returncode != 0:
+        subprocess.run(["mount", "-t", "bpf", "bpf", "/sys/fs/bpf"], check=True, capture_output=True)
+
+
+def set_port_type(intf: str, port_type: str) -> None:
+    """Make the switch side of a veth an ``afxdp``/``afxdp-nonpmd`` port (or back to ``system``)."""
+    kind = '""' if port_type == "system" else port_type  # the empty type is a system port
+    subprocess.run(["ovs-vsctl", "set", "Interface", intf, f"type={kind}"], check=True, capture_output=True)
+
+
+def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
     """Open vSwitch's own flow-mod and fast-failover times on this machine (see the module docstring)."""
+    if port_type not in PORT_TYPES:
+        raise ValueError(f"port type must be one of {PORT_TYPES}")
     cleanup.clean()
     net = Mininet(switch=TestbedSwitch, controller=None, autoSetMacs=True, build=False)
     s1 = net.addSwitch("s1")
@@ -99,6 +117,12 @@ def measure(repeat: int = 20, load: int = 0) -> dict:
         for h in hosts:
             h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
         port = {h.name: s1.ports[s1.connectionsTo(h)[0][0]] for h in hosts}
+        if port_type != "system":
+            ensure_bpffs()
+            for h in hosts:
+                set_port_type(s1.connectionsTo(h)[0][0].name, port_type)
+            time.sleep(1.0)
+        cpu_before = ovs_cpu_s()
         ofctl("add-flow", "s1", "priority=1,arp,actions=FLOOD")
         for k in range(load):  # background streams h(4+2k) -> h(5+2k)
             a, b = hosts[3 + 2 * k], hosts[4 + 2 * k]
@@ -133,8 +157,10 @@ def measure(repeat: int = 20, load: int = 0) -> dict:
         result = {"benchmark": "ovs_latency", "machine": platform.platform(), "cpus": len(__import__("os").sched_getaffinity(0)),
                   "datapath": default_datapath(), "ovs": subprocess.run(["ovs-vswitchd", "--version"], capture_output=True,
                                                                          text=True).stdout.splitlines()[0],
-                  "stream_pps": 1500, "extra_streams": load, "repeat": repeat,
-                  "flow_mod_ms": stats(flow_mod), "ff_port_down_ms": stats(ff)}
+                  "port_type": port_type, "stream_pps": 1500, "extra_streams": load, "repeat": repeat,
+                  "flow_mod_ms": stats(flow_mod), "ff_port_down_ms": stats(ff),
+                  "ovs_vswitchd_cpu_s": round(ovs_cpu_s() - cpu_before, 3),
+                  "ovs_vswitchd_cpu_note": "CPU of ovs-vswitchd over the whole measurement (both parts)"}
         return result
     finally:
         for p in procs:
@@ -143,12 +169,21 @@ def measure(repeat: int = 20, load: int = 0) -> dict:
         cleanup.clean()
 
 
+def ovs_cpu_s() -> float:
+    """CPU seconds ovs-vswitchd has used (user + system, /proc)."""
+    pid = subprocess.run(["pidof", "ovs-vswitchd"], capture_output=True, text=True).stdout.split()[0]
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeat", type=int, default=20)
     ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
+    ap.add_argument("--port-type", choices=PORT_TYPES, default="system",
+                    help="the switch side of the veths: system (Mininet's default) or AF_XDP")
     args = ap.parse_args()
-    print(json.dumps(measure(args.repeat, args.load), indent=1))
+    print(json.dumps(measure(args.repeat, args.load, args.port_type), indent=1))
 
 
 if __name__ == "__main__":
