@@ -230,3 +230,22 @@ def test_live_view_updates_carry_new_events_and_lines_once_and_the_history_on_co
         assert "history" not in second and [e["type"] for e in second["events"]] == ["c"] and second["lines"] == []
     finally:
         view.server.server_close()
+
+
+def test_session_options_of_sdvisc_run():
+    from argparse import Namespace
+
+    from scenarios.cli import _session_options
+    from scenarios.loader import load_scenario
+
+    def opts(**kw):
+        return Namespace(**{"duration": None, "cli": False, "cli_duration": None, "web": None, **kw})
+
+    smoke = "scenarios/smoke.yaml"  # timeline action at t = 1 s, duration 3 s
+    sc = load_scenario(smoke)
+    assert _session_options(opts(cli=True, duration=float("inf"), web=8765), sc) is None and sc.duration_s is None
+    assert "needs --cli" in _session_options(opts(duration=float("inf")), load_scenario(smoke))
+    assert "t = 1 s" in _session_options(opts(cli=True, duration=0.5), load_scenario(smoke))
+    assert "(--cli)" in _session_options(opts(web=8765), load_scenario(smoke))
+    sc = load_scenario(smoke)
+    assert _session_options(opts(duration=10.0), sc) is None and sc.duration_s == 10.0
