@@ -122,6 +122,12 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
             for h in hosts:
                 set_port_type(s1.connectionsTo(h)[0][0].name, port_type)
             time.sleep(1.0)
+            for h in hosts:  # Open vSwitch accepts the type and reports a refusal in the error column
+                name = s1.connectionsTo(h)[0][0].name
+                got = subprocess.run(["ovs-vsctl", "get", "Interface", name, "type", "error"],
+                                     capture_output=True, text=True).stdout.split("\n")
+                if got[0].strip().strip('"') != port_type or got[1].strip() not in ("[]", ""):
+                    raise RuntimeError(f"{name}: Open vSwitch did not open it as {port_type}: {got}")
         cpu_before = ovs_cpu_s()
         ofctl("add-flow", "s1", "priority=1,arp,actions=FLOOD")
         for k in range(load):  # background streams h(4+2k) -> h(5+2k)
