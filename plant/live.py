@@ -17,11 +17,11 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
 
-from sdvisc.jsonlines import write_json_atomic
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
 STATUS_EVERY_S = 0.05  # simulated seconds between two plant_status.json
@@ -73,28 +73,40 @@ class LivePublisher:
 
     # ------------------------------------------------------------------ status
     def write_status(self, service, now: float) -> None:
+        """Replace ``plant_status.json`` (compact JSON, one write and a rename: a reader never sees
+        half a file). Turbines that never sent or received a packet are left out (a 50-turbine
+        farm with a few ViSC turbines stays small)."""
         endpoints = service.endpoints
         streaming = [ep for ep in endpoints if ep.streaming]
-        turbines = {}
-        meas = service.model.measurements() if streaming else None
-        for ep in endpoints:
-            row = {"streaming": ep.streaming, "meas_tx": ep.counts["meas_tx"], "ctrl_rx": ep.counts["ctrl_rx"]}
-            if ep.streaming:
-                i = ep.index
+        turbines = {ep.name: {"streaming": False, "meas_tx": ep.counts["meas_tx"], "ctrl_rx": ep.counts["ctrl_rx"]}
+                    for ep in endpoints if not ep.streaming and (ep.counts["meas_tx"] or ep.counts["ctrl_rx"])}
+        if streaming:
+            meas = service.model.measurements()
+            index = [ep.index for ep in streaming]
+            v = np.hypot(meas["v_d"][index], meas["v_q"][index]).tolist()
+            p, q = meas["p"][index].tolist(), meas["q"][index].tolist()
+            f = (meas["omega_meas"][index] * F_NOMINAL_HZ).tolist()
+            for j, ep in enumerate(streaming):
                 delay_sum_ms, delay_n = ep.live_delay
                 ep.live_delay[:] = [0.0, 0]
-                row.update(v=round(float(np.hypot(meas["v_d"][i], meas["v_q"][i])), 6),
-                           p=round(float(meas["p"][i]), 6), q=round(float(meas["q"][i]), 6),
-                           f_hz=round(float(meas["omega_meas"][i]) * F_NOMINAL_HZ, 5),
-                           ctrl_delay_ms=round(delay_sum_ms / delay_n, 4) if delay_n else None,
-                           t_last_ctrl=self._t(ep.last_ctrl_wall) if ep.last_ctrl_wall > float("-inf") else None)
-            turbines[ep.name] = row
+                turbines[ep.name] = {
+                    "streaming": True, "meas_tx": ep.counts["meas_tx"], "ctrl_rx": ep.counts["ctrl_rx"],
+                    "v": round(v[j], 6), "p": round(p[j], 6), "q": round(q[j], 6), "f_hz": round(f[j], 5),
+                    "ctrl_delay_ms": round(delay_sum_ms / delay_n, 4) if delay_n else None,
+                    "t_last_ctrl": self._t(ep.last_ctrl_wall) if ep.last_ctrl_wall > float("-inf") else None}
         status = {"t_sim": service.k * service.step_s, "steps": service.k, "n_steps": service.n_steps,
                   "late_steps": service.late_steps, "t_wall": now,
                   "meas_tx": sum(ep.counts["meas_tx"] for ep in endpoints),
                   "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in endpoints),
                   "streaming": [ep.name for ep in streaming], "turbines": turbines}
-        write_json_atomic(self.out_dir / "plant_status.json", status)
+        path = self.out_dir / "plant_status.json"
+        tmp = f"{path}.{os.getpid()}.tmp"  # only this thread writes it
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        try:
+            os.write(fd, json.dumps(status, separators=(",", ":")).encode())
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
 
     def close(self) -> None:
         if self._file is not None:

@@ -66,16 +66,18 @@ def test_a_short_gap_is_no_event_and_a_gap_between_checks_still_ends_in_restored
 def test_status_has_v_q_f_and_delay_of_streaming_turbines_only(tmp_path):
     class Model:
         def measurements(self):
-            return {"v_d": np.array([0.6, 1.0]), "v_q": np.array([0.8, 0.0]), "p": np.array([0.5, 0.0]),
-                    "q": np.array([0.1, 0.0]), "omega_meas": np.array([1.002, 1.0])}
+            return {"v_d": np.array([0.6, 1.0, 1.0]), "v_q": np.array([0.8, 0.0, 0.0]), "p": np.array([0.5, 0.0, 0.0]),
+                    "q": np.array([0.1, 0.0, 0.0]), "omega_meas": np.array([1.002, 1.0, 1.0])}
 
     class Service:
         k, step_s, n_steps, late_steps, model = 1500, 0.001, None, 3, Model()
 
     on = Endpoint("wt1_1", 101, 0, sock=None)
     on.streaming, on.last_ctrl_wall, on.live_delay = True, T0 + 1.4, [1.5, 3]
-    off = Endpoint("wt1_2", 102, 1, sock=None)
-    Service.endpoints = [on, off]
+    off = Endpoint("wt1_2", 102, 1, sock=None)  # streamed before, stopped
+    off.counts.update(meas_tx=40, ctrl_rx=38)
+    idle = Endpoint("wt1_3", 103, 2, sock=None)  # never took part: left out
+    Service.endpoints = [on, off, idle]
     live = LivePublisher(tmp_path, [])
     live.t0 = T0
     live.write_status(Service, T0 + 1.5)
@@ -84,5 +86,6 @@ def test_status_has_v_q_f_and_delay_of_streaming_turbines_only(tmp_path):
     row = status["turbines"]["wt1_1"]
     assert (row["v"], row["q"], row["p"], row["f_hz"], row["ctrl_delay_ms"]) == (1.0, 0.1, 0.5, 50.1, 0.5)
     assert row["t_last_ctrl"] == pytest.approx(1.4)
-    assert status["turbines"]["wt1_2"] == {"streaming": False, "meas_tx": 0, "ctrl_rx": 0}
+    assert status["turbines"]["wt1_2"] == {"streaming": False, "meas_tx": 40, "ctrl_rx": 38}
+    assert "wt1_3" not in status["turbines"]
     assert on.live_delay == [0.0, 0]  # the delay is the mean since the last status
