@@ -60,7 +60,9 @@ class SessionCommands:
                 try:
                     self.cmdloop()
                     break
-                except KeyboardInterrupt:
+                except KeyboardInterrupt as exc:
+                    if exc.args:  # SIGTERM or SIGHUP (the runner's handler names the signal): end the run
+                        raise
                     if self.session.ended.is_set():
                         print(flush=True)  # leave the unfinished input line
                         break

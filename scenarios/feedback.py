@@ -47,9 +47,10 @@ def action_text(e: dict) -> str:
         return f"{'crash of' if e.get('crash') else 'kill'} {name}"
     if kind in ("visc_on", "visc_off", "set_params"):
         return f"{kind} {e.get('wt')}"
-    if kind == "impair":
-        settings = " ".join(f"{k}={v}" for k, v in sorted(e.items())
-                            if k not in ("t", "t_effective", "type", "source", "a", "b"))
+    if kind == "impair":  # the CLI records the link's impairment as it now is ("now"), the timeline the keys set
+        values = e["now"] if isinstance(e.get("now"), dict) else e
+        settings = " ".join(f"{k}={v:g}" if isinstance(v, float) else f"{k}={v}" for k, v in sorted(values.items())
+                            if k not in ("t", "t_effective", "type", "source", "a", "b", "now") and v not in (None, 0, 0.0))
         return f"link {e.get('a')}-{e.get('b')} impair {settings}".rstrip()
     details = " ".join(f"{k}={v}" for k, v in e.items() if k not in ("t", "type", "source", "t_effective"))
     return f"{kind} {details}".rstrip()
@@ -89,6 +90,8 @@ class Feedback:
         self.losses: dict[str, _Loss] = {}
         self.pending: list[_Pending] = []
         self.faults: list[dict] = []  # fault actions so far (for causes)
+        self.impaired: dict[tuple, dict] = {}  # links with an impairment now (their last impair action)
+        self.pauses: dict[str, tuple[float, int]] = {}  # per turbine: last pause line shown, pauses not shown since
 
     def feed(self, events: list[dict], now: float) -> list[str]:
         """Take the events that arrived since the last call (any order); ``now``: scenario time."""
@@ -114,6 +117,13 @@ class Feedback:
         if kind in FAULT_ACTIONS:
             self.faults.append(dict(e, t=t_act))
             self.pending.append(_Pending(e, t_act))
+        if kind == "impair":
+            self.impaired[tuple(sorted((e.get("a"), e.get("b"))))] = e
+        elif kind == "clear_impairments":
+            if e.get("a") is None:
+                self.impaired.clear()
+            else:
+                self.impaired.pop(tuple(sorted((e.get("a"), e.get("b")))), None)
         elif kind in ("visc_on", "visc_off"):
             self.pending.append(_Pending(e, t_act, wt=e.get("wt")))
         return out
@@ -172,14 +182,26 @@ class Feedback:
             loss = _Loss(wt, float(e.get("t_loss", t)), self._cause(float(e.get("t_loss", t))))
         if loss.reported_open:
             return [f"{wt}: control restored at {_s(t)}, {t - loss.t_loss:.2f} s after it was lost"]
-        if loss.cause is None and not loss.steps:  # nothing done and nothing reacted: the machine was busy
-            return [f"{wt}: control packets paused {(t - loss.t_loss) * 1e3:.0f} ms at {_s(loss.t_loss)} "
-                    f"(no fault, no SDN reaction: this machine was busy?)"]
+        if loss.cause is None and not loss.steps:  # nothing done and nothing reacted
+            return self._pause(wt, loss.t_loss, t)
         since = loss.cause["t"] if loss.cause else loss.t_loss
         after = f"restored after {(t - since) * 1e3:.0f} ms"
         if loss.cause:
             after += f" ({action_text(loss.cause)} at {_s(loss.cause['t'])})"
         return [f"{loss.text()}; {after}"]
+
+    def _pause(self, wt: str, t_loss: float, t: float) -> list[str]:
+        """A gap no action caused and nothing reacted to: an impaired link's loss or delay, or a busy
+        machine. At most one line per turbine and second; the ones left out are counted."""
+        shown, hidden = self.pauses.get(wt, (float("-inf"), 0))
+        if t - shown < 1.0:
+            self.pauses[wt] = (shown, hidden + 1)
+            return []
+        self.pauses[wt] = (t, 0)
+        why = (f"link {', '.join('-'.join(k) for k in sorted(self.impaired))} impaired" if self.impaired
+               else "no fault, no SDN reaction: this machine was busy?")
+        more = f"; {hidden} more such pause{'s' if hidden > 1 else ''} before" if hidden else ""
+        return [f"{wt}: control packets paused {(t - t_loss) * 1e3:.0f} ms at {_s(t_loss)} ({why}){more}"]
 
     def _on_visc_on(self, e: dict, t: float) -> list[str]:
         for p in self.pending:

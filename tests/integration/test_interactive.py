@@ -9,6 +9,7 @@ import json
 import os
 import re
 import shutil
+import signal
 import socket
 import subprocess
 import sys
@@ -101,6 +102,24 @@ def test_cli_session_stays_live_after_the_timeline_and_reports_the_recovery(tmp_
     assert summary["completed"] and summary["duration_s"] >= t_before_exit  # the whole session
     (rec,) = [r for r in summary["recoveries"] if r["fault"]["type"] == "link_down"]
     assert rec["cause"] == "dr" and abs(rec["recovery_ms"] - restored_ms) <= 1.0  # the CLI said what summary says
+    assert_no_leftovers()
+
+
+def test_sigterm_ends_a_session_and_leaves_nothing(tmp_path):
+    """Ctrl-C at the prompt only interrupts the line; SIGTERM (or a hang-up) ends the session."""
+    child = start_session(tmp_path / "term")
+    try:
+        child.sendintr()
+        child.expect("type exit to end the session")
+        assert simulated_time(child) >= 0.0  # still answering
+        child.kill(signal.SIGTERM)
+        child.expect(pexpect.EOF, timeout=120 * K)
+        child.close()
+        assert child.exitstatus == 130, child.before
+    finally:
+        if child.isalive():
+            child.terminate(force=True)
+    assert json.loads((tmp_path / "term" / "summary.json").read_text())["completed"] is False
     assert_no_leftovers()
 
 

@@ -108,6 +108,22 @@ def test_a_pause_without_fault_or_reaction_is_called_what_it_is():
     assert lines == ["wt1_1: control packets paused 22 ms at 24.50 s (no fault, no SDN reaction: this machine was busy?)"]
 
 
+def test_pauses_on_an_impaired_link_say_so_and_do_not_flood():
+    fb = Feedback()
+    fb.feed([{"t": 1.0, "source": "timeline", "type": "impair", "a": "s3", "b": "s1", "loss": 0.3}], 1.0)
+    assert fb.feed([], 2.0) == ["link s3-s1 impair loss=0.3: no ViSC turbine lost its control packets in the 0.5 s after it"]
+
+    def pause(t):
+        return fb.feed([{"t": t + 0.025, "source": "plant", "type": "ctrl_restored", "wt": "wt1_1", "t_loss": t,
+                         "gap_ms": 25.0}], t + 0.03)
+
+    assert pause(3.0) == ["wt1_1: control packets paused 25 ms at 3.00 s (link s1-s3 impaired)"]
+    assert pause(3.2) == [] and pause(3.5) == []
+    assert pause(4.1) == ["wt1_1: control packets paused 25 ms at 4.10 s (link s1-s3 impaired); 2 more such pauses before"]
+    fb.feed([{"t": 5.0, "source": "cli", "type": "clear_impairments", "a": "s1", "b": "s3"}], 5.0)
+    assert pause(6.0) == ["wt1_1: control packets paused 25 ms at 6.00 s (no fault, no SDN reaction: this machine was busy?)"]
+
+
 def test_shadow_decisions_of_a_slave_app_are_not_reported():
     fb = Feedback()
     assert fb.feed([{"t": 1.0, "source": "sdn_app2", "type": "link_down", "link": ["s1", "s3"], "shadow": True}], 1.0) == []
@@ -116,7 +132,12 @@ def test_shadow_decisions_of_a_slave_app_are_not_reported():
 def test_impair_is_a_fault_action_with_its_settings():
     fb = Feedback(quiet_s=0.5)
     fb.feed([{"t": 4.0, "source": "cli", "type": "impair", "a": "s1", "b": "s3", "delay_ms": 5.0}], 4.0)
-    assert fb.feed([], 4.6) == ["link s1-s3 impair delay_ms=5.0: no ViSC turbine lost its control packets in the 0.5 s after it"]
+    assert fb.feed([], 4.6) == ["link s1-s3 impair delay_ms=5: no ViSC turbine lost its control packets in the 0.5 s after it"]
+    fb.feed([{"t": 5.0, "source": "cli", "type": "impair", "a": "s1", "b": "s3",  # as scenarios.impairments records it
+              "now": {"delay_ms": 5.0, "jitter_ms": 0.0, "loss": 0.5, "bw_mbps": None}},
+             {"t": 5.004, "source": "plant", "type": "ctrl_restored", "wt": "wt1_1", "t_loss": 5.001, "gap_ms": 25.0}], 5.01)
+    assert fb.feed([{"t": 5.2, "source": "plant", "type": "ctrl_restored", "wt": "wt1_1", "t_loss": 5.1, "gap_ms": 100.0}],
+                   5.3) == ["wt1_1: control lost at 5.10 s; restored after 200 ms (link s1-s3 impair delay_ms=5 loss=0.5 at 5.00 s)"]
 
 
 def test_event_line_and_watch_line():
