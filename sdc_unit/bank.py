@@ -134,13 +134,14 @@ class ControllerBank:
 
     def _step_visc(self, slots, rows, usable, used, all_usable):
         visc = self.visc
-        if all_usable:
-            valid = visc.advance_slots(used, rows)  # the outputs are in visc.last
+        if all_usable:  # the usual case: the step hands back the slots' outputs (rows OUT_FIELDS)
+            valid, outputs, limited = visc.advance_slots(used, rows)
         else:
             valid = usable.copy()
-            valid[usable] = visc.advance_slots(used, rows[:, usable])
-        out = dict(zip(CTRL_OUTPUTS, np.array([visc.last[k] for k in CTRL_OUTPUTS])[:, slots]))
-        out["limited"] = visc.last_limited[slots]
+            valid[usable] = visc.advance_slots(used, rows[:, usable])[0]
+            outputs, limited = np.array([visc.last[k] for k in CTRL_OUTPUTS])[:, slots], visc.last_limited[slots]
+        out = dict(zip(CTRL_OUTPUTS, outputs))  # CTRL_OUTPUTS are the first OUT_FIELDS
+        out["limited"] = limited
         return out, valid
 
 

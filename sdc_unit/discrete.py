@@ -159,20 +159,22 @@ class DiscreteVisc:
         self.k += 1
         return ok
 
-    def advance_slots(self, slots: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    def advance_slots(self, slots: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`advance` of the active instances among ``slots`` (distinct indices) on ``rows``, their
-        measurements as a (len(MEAS_FIELDS), len(slots)) matrix that is finite (the caller has
-        checked); the others are not touched. Returns ``valid`` per slot."""
+        measurements as a (len(MEAS_FIELDS), len(slots)) float64 matrix that is finite (the caller
+        has checked); the others are not touched. Returns (valid, outputs, limited) per slot:
+        ``outputs`` holds the slots' last outputs after the step, rows in OUT_FIELDS order."""
         direct = getattr(self.engine, "advance_slots", None)
         if direct is None:
             full = np.zeros((len(MEAS_FIELDS), self.n))
             full[:, slots] = rows
             stepping = np.zeros(self.n, dtype=bool)
             stepping[slots] = True
-            return self.advance(full, stepping)[slots]
-        ok = direct(slots, rows, self.active[slots])
+            ok = self.advance(full, stepping)[slots]
+            return ok, np.array([self.last[f] for f in OUT_FIELDS])[:, slots], self.last_limited[slots]
+        result = direct(slots, rows)
         self.k += 1
-        return ok
+        return result
 
     def _outputs(self, valid) -> Outputs:
         rows = np.array([self.last[f] for f in OUT_FIELDS])  # one copy of every output

@@ -164,8 +164,7 @@ class CompiledEngine:
         self.visc = visc
         self.consts, self.flags = tables
         self.stale = True
-        self._slot_meas: np.ndarray | None = None  # advance_slots' measurement matrix and mask
-        self._slot_mask: np.ndarray | None = None
+        self._slot_meas: np.ndarray | None = None  # advance_slots' measurement matrix
 
     def states_replaced(self) -> None:
         """Something outside the step replaced states or parameters: stack them again before the next step."""
@@ -175,6 +174,8 @@ class CompiledEngine:
     def tables(visc):
         """Constants and flags of the compiled step, or None where it cannot be used."""
         p, dt = visc.p, visc.dtype
+        if tuple(jit.OUT_ROWS) != OUT_FIELDS:  # advance_slots hands the kernel's output rows out as OUT_FIELDS
+            raise RuntimeError(f"tustin_jit.OUT_ROWS {jit.OUT_ROWS} differ from OUT_FIELDS {OUT_FIELDS}")
         flags = (p.freeze_vf_when_limited, p.omega_s_measured, p.avr_antiwindup, p.ff_filtered, visc.swing.wrap)
         if any(np.ndim(f) for f in flags):
             return None  # per-instance switches: the numpy pass handles them
@@ -215,26 +216,20 @@ class CompiledEngine:
         v.last_limited = limited
         return ok
 
-    def advance_slots(self, slots: np.ndarray, rows: np.ndarray, stepping: np.ndarray) -> np.ndarray:
-        """:meth:`advance` of the instances ``slots`` where ``stepping`` (one per slot), on ``rows``
-        (finite, (len(MEAS_FIELDS), len(slots))): the rows go into a persistent measurement matrix
-        (the kernel reads only the columns it steps), no matrix of the whole bank is built.
-        Returns the validity per slot."""
+    def advance_slots(self, slots: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:meth:`advance` of the active ones of the instances ``slots`` (distinct, intp), on ``rows``
+        (finite, (len(MEAS_FIELDS), len(slots)), float64) in one kernel call
+        (:func:`sdc_unit.tustin_jit.tustin_step_slots`: the rows go into a persistent measurement
+        matrix, whose other columns the kernel does not read). Returns (valid, outputs, limited) per
+        slot: outputs = the slots' last outputs (rows OUT_FIELDS) after the step."""
         v = self.visc
         if self.stale:
             self._stack()
         if self._slot_meas is None or self._slot_meas.shape[1] != v.n:
             self._slot_meas = np.zeros((len(MEAS_FIELDS), v.n), dtype=v.dtype)
-            self._slot_mask = np.zeros(v.n, dtype=bool)
-        meas, mask = self._slot_meas, self._slot_mask
-        meas[:, slots] = rows  # into the working precision, rounded as astype rounds
-        mask[slots] = stepping
-        limited = v.last_limited.copy()
-        ok = np.empty(v.n, dtype=bool)
-        try:
-            jit.tustin_step(self._x, self._coef, self.consts, self.flags, meas, self._refs, self._mem, mask, self._last,
-                            limited, ok)
-        finally:
-            mask[slots] = False
-        v.last_limited = limited
-        return ok[slots]
+        rows = np.ascontiguousarray(rows, dtype=np.float64)  # one kernel signature (no compile at run time)
+        k = len(slots)
+        ok, outputs, limited = np.empty(k, dtype=bool), np.empty((len(OUT_FIELDS), k)), np.empty(k, dtype=bool)
+        jit.tustin_step_slots(self._x, self._coef, self.consts, self.flags, self._slot_meas, self._refs, self._mem,
+                              slots, rows, v.active, self._last, v.last_limited, ok, outputs, limited)
+        return ok, outputs, limited

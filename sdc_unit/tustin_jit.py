@@ -162,6 +162,25 @@ def compiled_in_key() -> int:
     return int(hashlib.sha256(text.encode()).hexdigest()[:15], 16)
 
 
+@njit
+def _advance_one(X, C, K, F, M, R, MEM, i, LAST, LIMITED, new, mem, out):
+    """Turbine i of :func:`tustin_step` (states and memory in place); True if its outputs are finite
+    (then written to LAST[:, i] and LIMITED[i])."""
+    lim_last = MEM[0, i] > 0
+    limited = _evaluate(X, C, K, F, M, R, i, lim_last, MEM[1, i], MEM[2, i], new, mem, out)
+    if lim_last or limited:
+        limited = _evaluate(X, C, K, F, M, R, i, limited, mem[1], mem[2], new, mem, out)
+    X[:, i] = new
+    MEM[:, i] = mem
+    for j in range(out.shape[0]):
+        if not np.isfinite(out[j]):
+            return False
+    for j in range(out.shape[0]):
+        LAST[j, i] = out[j]
+    LIMITED[i] = limited
+    return True
+
+
 def _entry(compiled_in: int):
     """The compiled step, cached on disk by numba. numba stamps that cache with this file only
     (changes in other files are not seen), and the step also compiles code and constants from
@@ -181,27 +200,38 @@ def _entry(compiled_in: int):
         mem = np.empty(MEM.shape[0], dtype=X.dtype)
         out = np.empty(LAST.shape[0], dtype=X.dtype)
         for i in range(n):
-            OK[i] = False
-            if not mask[i]:
-                continue
-            lim_last = MEM[0, i] > 0
-            limited = _evaluate(X, C, K, F, M, R, i, lim_last, MEM[1, i], MEM[2, i], new, mem, out)
-            if lim_last or limited:
-                limited = _evaluate(X, C, K, F, M, R, i, limited, mem[1], mem[2], new, mem, out)
-            X[:, i] = new
-            MEM[:, i] = mem
-            finite = True
-            for j in range(out.shape[0]):
-                if not np.isfinite(out[j]):
-                    finite = False
-            if finite:
-                for j in range(out.shape[0]):
-                    LAST[j, i] = out[j]
-                LIMITED[i] = limited
-                OK[i] = True
+            OK[i] = mask[i] and _advance_one(X, C, K, F, M, R, MEM, i, LAST, LIMITED, new, mem, out)
 
     return tustin_step
 
 
-tustin_step = _entry(compiled_in_key())
+def _slots_entry(compiled_in: int):
+    """:func:`tustin_step` for a list of turbines (see :func:`_entry` for the cache key)."""
 
+    @njit(cache=True)
+    def tustin_step_slots(X, C, K, F, M, R, MEM, slots, rows, ACTIVE, LAST, LIMITED, OK, OUT, OUT_LIMITED):
+        """Advance the active ones of the turbines ``slots`` (distinct) on their measurements
+        ``rows`` (column j for slots[j], float64, finite), first copied into M's columns in the
+        working precision; as :func:`tustin_step` otherwise, OK[j] per slot. OUT[:, j] and
+        OUT_LIMITED[j] get LAST[:, slots[j]] and LIMITED[slots[j]] after the step (stepped or not)."""
+        if compiled_in == 0:  # never true (see _entry)
+            return
+        new = np.empty(X.shape[0], dtype=X.dtype)
+        mem = np.empty(MEM.shape[0], dtype=X.dtype)
+        out = np.empty(LAST.shape[0], dtype=X.dtype)
+        for j in range(slots.shape[0]):
+            i = slots[j]
+            OK[j] = False
+            if ACTIVE[i]:
+                for r in range(rows.shape[0]):
+                    M[r, i] = rows[r, j]
+                OK[j] = _advance_one(X, C, K, F, M, R, MEM, i, LAST, LIMITED, new, mem, out)
+            for r in range(OUT.shape[0]):
+                OUT[r, j] = LAST[r, i]
+            OUT_LIMITED[j] = LIMITED[i]
+
+    return tustin_step_slots
+
+
+tustin_step = _entry(compiled_in_key())
+tustin_step_slots = _slots_entry(compiled_in_key())
