@@ -1,28 +1,31 @@
 """``time_scale: auto``: measure on the built network what this run will cost, then pick the time scale.
 
 Before t = 0 and before the SDN application starts, for each candidate k = 1, 2, 4, … 64 (smallest
-first, stopping at the first that passes), the runner plays one probe of the run itself at that k:
+first, stopping at the first that passes), the runner plays a pilot of the run itself at that k:
 
 * **the plant**: this scenario's plant model, with its ViSC turbines in remote mode, stepped
-  paced at k·Ts in the runner's process (the same model code the plant service runs), timed per
-  step; its busy fraction is step cost / (k·Ts);
-* **the SDC**: one :class:`sdc_unit.bank.ControllerBank` round for the scenario's ViSC turbines
-  fed with the plant's own measurements, timed the same way;
-* **the network**: every step, one probe the size of a MEAS from each ViSC turbine's namespace to
-  an echo process on the primary SDC's host and back (:mod:`sdvisc.probe`), along the shortest
-  path the SDN app would install first (temporary OpenFlow rules, cookie :data:`PROBE_COOKIE`,
-  removed afterwards); one-way delays from kernel receive stamps, both directions.
+  paced at k·Ts in the runner's process (the same model code the plant service runs), and each
+  step one real MEAS per ViSC turbine (the model's own measurements, GTNET header) sent from that
+  turbine's namespace; the step's compute (model, encoding, sending, reading the CTRLs) is timed and
+  its busy fraction is cost / (k·Ts);
+* **the SDC**: the real SDC service (:mod:`sdc_unit.pilot`: :class:`sdc_unit.service.SdcService`
+  with the run's configuration, one instance per ViSC turbine) on the primary SDC's host answers
+  every MEAS with its CTRL; its busy fraction is its process CPU over the trial's wall time;
+* **the network**: MEAS and CTRL go through the switches along the shortest path the SDN app would
+  install first (temporary OpenFlow rules, cookie :data:`PROBE_COOKIE`, removed and checked gone);
+  the round trip MEAS sent → CTRL received is taken from the kernel's receive stamp.
 
-The network carries the run's packet rate at that k while the plant and the SDC load the CPU as
-they will, so the probe sees the contention of the run, not an idle machine. A candidate passes
-(:func:`shortfalls`) when the plant and the SDC are each at most :data:`BUSY_LIMIT` busy and every
-turbine's one-way delay p99, in simulated time (wall / k), is at most :data:`ONE_WAY_LIMIT_STEPS`
-× Ts (so MEAS → CTRL fits in one sample, with the margin that constant explains). Not measured: the SDN app's and the OWFCC's CPU (a few
-% of a core at these rates), the plant's socket work for AKs, and the recorder.
+A candidate passes (:func:`shortfalls`) when the plant and the SDC are each at most
+:data:`BUSY_LIMIT` busy and the plant's step plus every turbine's MEAS → CTRL round trip p99 fits
+in :data:`ROUND_TRIP_LIMIT_STEPS` of a sample (in simulated time, wall / k): the issue asks for a
+one-way p99 of Ts/2 so that the answer reaches the next step; the pilot measures the round trip
+itself, the SDC's work included, which is what that condition is for. Not measured: the SDN app's
+and the OWFCC's CPU, the plant service's AKs, status files and recorder.
 """
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 import time
@@ -31,40 +34,42 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from plant.service import build_model
 from scenarios import configs
-from sdvisc import probe, wire
+from sdvisc import rxstamp, wire
+from sdvisc.config import write_config
 from sdvisc.netns import udp_socket_in
 from sdvisc.stats import delay_summary
 from sdvisc.vocabulary import FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS
 
 CANDIDATES = (1, 2, 4, 8, 16, 32, 64)
 BUSY_LIMIT = 0.5
-ONE_WAY_LIMIT_STEPS = 0.25
-"""Probe one-way p99 limit in samples (simulated time). The issue asks for Ts/2 so that MEAS → CTRL fits
-in one sample; a probe loads the machine less than the run's services do (measured on
-fault_4visc_network at k = 4: probe p99 0.32 ms, the run's own MEAS/CTRL p99 0.71/0.94 ms simulated,
-26 % of the answers late by a sample, four converter trips), so the limit is half of that."""
+ROUND_TRIP_LIMIT_STEPS = 0.9
+"""The plant's step plus the MEAS → CTRL round trip p99 (the real SDC included) must fit in this
+share of a sample for the answer to reach the next step; the rest is the plant's wake-up jitter."""
 PROBE_WALL_S = 1.5  # wall time per candidate …
-MIN_PROBE_STEPS = 200  # … but at least this many steps (probes per turbine)
+MIN_PROBE_STEPS = 200  # … but at least this many steps (MEAS per turbine)
 PROBE_COOKIE = 0x5D5CA1E
 PROBE_COOKIE_TEXT = f"cookie={PROBE_COOKIE:#x}"
 PROBE_PRIORITY = 65000
 
 
-def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_round_s: float,
-               worst_one_way_p99_wall_s: float | None, lost: int = 0) -> list[str]:
-    """Why time scale ``k`` is not enough (empty list: it is). Costs are wall seconds per step."""
+def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_busy: float,
+               worst_round_trip_p99_wall_s: float | None, lost: int = 0) -> list[str]:
+    """Why time scale ``k`` is not enough (empty list: it is). ``plant_step_s``: wall seconds of
+    compute per step; ``sdc_busy``: the SDC process's CPU per wall second."""
     period = k * step_s
     out = []
     if plant_step_s > BUSY_LIMIT * period:
         out.append(f"plant {plant_step_s / period:.0%} busy (limit {BUSY_LIMIT:.0%})")
-    if sdc_round_s > BUSY_LIMIT * period:
-        out.append(f"SDC {sdc_round_s / period:.0%} busy (limit {BUSY_LIMIT:.0%})")
-    if worst_one_way_p99_wall_s is not None and worst_one_way_p99_wall_s / k > ONE_WAY_LIMIT_STEPS * step_s:
-        out.append(f"one-way p99 {worst_one_way_p99_wall_s / k * 1e3:.3f} ms simulated "
-                   f"(limit {ONE_WAY_LIMIT_STEPS * step_s * 1e3:.3f} ms = {ONE_WAY_LIMIT_STEPS:g} Ts)")
+    if sdc_busy > BUSY_LIMIT:
+        out.append(f"SDC {sdc_busy:.0%} busy (limit {BUSY_LIMIT:.0%})")
+    if (worst_round_trip_p99_wall_s is not None
+            and plant_step_s + worst_round_trip_p99_wall_s > ROUND_TRIP_LIMIT_STEPS * period):
+        out.append(f"plant step + MEAS->CTRL p99 {(plant_step_s + worst_round_trip_p99_wall_s) / k * 1e3:.3f} ms "
+                   f"simulated (limit {ROUND_TRIP_LIMIT_STEPS * step_s * 1e3:.3f} ms = {ROUND_TRIP_LIMIT_STEPS:g} Ts)")
     if lost:
-        out.append(f"{lost} probes lost")
+        out.append(f"{lost} answers missing")
     return out
 
 
@@ -78,22 +83,23 @@ def choose(trials: list[dict]) -> tuple[float, bool]:
 
 
 @dataclass
-class ProbeSetup:
-    """What one calibration talks to: the ViSC turbines' sockets, the SDC's echo, the model."""
+class PilotSetup:
+    """What one calibration talks to: the ViSC turbines' sockets, the SDC pilot, the plant model."""
 
-    sdc_host: str
     sdc_ip: str
     turbines: list[str]
     wids: dict[str, int]
     socks: dict = field(default_factory=dict)
     model: object = None
     indices: list[int] = field(default_factory=list)
-    bank: object = None
+    seq: int = 0  # MEAS counter, continued over the candidates (the SDC checks seq against t_sim)
+    sent: dict = field(default_factory=dict)  # (wid, seq) -> wall ns the MEAS was sent
+    pilot_pid: int | None = None
 
 
-def probe_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, list[str]]:
-    """Per OpenFlow switch, ``ovs-ofctl add-flows`` lines that carry probes from each turbine to
-    ``sdc_host`` and back along shortest paths (hop count; a tree rooted at the SDC's switch)."""
+def pilot_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, list[str]]:
+    """Per OpenFlow switch, ``ovs-ofctl add-flows`` lines that carry MEAS from each turbine to
+    ``sdc_host`` and CTRL back along shortest paths (hop count; a tree rooted at the SDC's switch)."""
     graph = nx.Graph()
     for link in desc["links"]:
         graph.add_edge(link["a"], link["b"], ports={link["a"]: link["a_port"], link["b"]: link["b_port"]})
@@ -109,14 +115,14 @@ def probe_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, lis
         if switch in openflow:
             flows.setdefault(switch, set()).add(f"{head},{match},actions=output:{port}")
 
-    to_sdc = f"nw_dst={hosts[sdc_host]['ip']},tp_dst={probe.PROBE_PORT}"
+    to_sdc = f"nw_dst={hosts[sdc_host]['ip']},tp_dst={wire.PORT_SDC}"
     add(root, to_sdc, hosts[sdc_host]["port"])
     for wt in turbines:
         edge = hosts[wt]["switch"]
         if edge not in paths:
             raise ValueError(f"calibration: no path from {wt} to {sdc_host}")
         path = paths[edge][::-1]  # turbine's switch … SDC's switch
-        to_wt = f"nw_dst={hosts[wt]['ip']},tp_src={probe.PROBE_PORT}"
+        to_wt = f"nw_dst={hosts[wt]['ip']},tp_dst={wire.PORT_TURBINE}"
         add(edge, to_wt, hosts[wt]["port"])
         for a, b in zip(path, path[1:]):
             ports = graph.edges[a, b]["ports"]
@@ -125,8 +131,14 @@ def probe_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, lis
     return {sw: sorted(lines) for sw, lines in flows.items()}
 
 
+def process_cpu_s(pid: int) -> float:
+    """CPU seconds (user + system) of process ``pid`` (/proc)."""
+    fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 class Calibration:
-    """Runs the probes on ``run``'s built network (see the module docstring)."""
+    """Runs the pilot on ``run``'s built network (see the module docstring)."""
 
     def __init__(self, run) -> None:
         self.run = run
@@ -134,8 +146,8 @@ class Calibration:
         self.step_s = sc.step_s
         hosts = run.desc["hosts"]
         self.turbines = [wt for wt in sc.turbines_named() if wt in hosts]
-        self.sdc_host = configs.sdcs(sc)[0][0]
-        self.flows = probe_flows(run.desc, self.sdc_host, self.turbines) if self.turbines else {}
+        self.sdc_host, self.sdc_id, self.sdc_role = configs.sdcs(sc)[0]
+        self.flows = pilot_flows(run.desc, self.sdc_host, self.turbines) if self.turbines else {}
 
     # ------------------------------------------------------------------ set-up and teardown
     def _ofctl(self, args: list[str], stdin: str | None = None) -> str:
@@ -144,51 +156,52 @@ class Calibration:
             raise RuntimeError(f"ovs-ofctl {' '.join(args)}: {res.stderr.strip()}")
         return res.stdout
 
-    def _model(self, setup: ProbeSetup) -> None:
-        from plant.service import build_model  # noqa: PLC0415 - the plant model is heavy; only auto needs it
-        from sdc_unit.bank import ControllerBank  # noqa: PLC0415
-
+    def _model(self, setup: PilotSetup) -> None:
         run, sc = self.run, self.run.scenario
         pids = {n: None for n, h in run.desc["hosts"].items() if h["role"] == "turbine"}
         cfg = configs.plant_config(sc, run.desc, str(run.out), pids, {"time_scale": 1.0})
         names = [t.name for t in cfg.turbines]
-        model, indices = build_model(cfg, names)
-        setup.model = model
+        setup.model, indices = build_model(cfg, names)
         setup.indices = [indices[names.index(wt)] for wt in self.turbines]
         for i in setup.indices:
-            model.set_mode(i, "remote")
-        if setup.indices:
-            setup.bank = ControllerBank(len(setup.indices), sc.step_s, sc.sdc.method, sc.sdc.dtype)
-            setup.bank.warm_up()
-            for slot in range(len(setup.indices)):
-                setup.bank.start(slot, {"mask": 0})
+            setup.model.set_mode(i, "remote")
+
+    def _start_pilot(self, setup: PilotSetup):
+        run = self.run
+        cfg = configs.sdc_config(run.scenario, run.desc, str(run.out), self.sdc_id, self.sdc_role, {"time_scale": 1.0})
+        cfg_path = write_config(cfg, run.out / "calibration_sdc_config.json")
+        ready = run.out / "calibration_sdc.json"
+        ready.unlink(missing_ok=True)
+        pilot = run.net.get(self.sdc_host).popen(
+            [sys.executable, "-m", "sdc_unit.pilot", "--config", str(cfg_path), "--ready", str(ready),
+             "--serve", ",".join(str(setup.wids[wt]) for wt in self.turbines)],
+            stdout=subprocess.DEVNULL, stderr=open(run.out / "calibration_sdc.log", "w"))  # noqa: SIM115
+        deadline = time.time() + 60
+        while not ready.exists():
+            if pilot.poll() is not None or time.time() > deadline:
+                raise RuntimeError(f"calibration: the SDC pilot on {self.sdc_host} did not start; see "
+                                   f"{run.out}/calibration_sdc.log")
+            time.sleep(0.02)
+        setup.pilot_pid = pilot.pid
+        return pilot
 
     def measure(self) -> dict:
-        """Probe candidates from k = 1 upwards; returns the calibration for ``summary.json``."""
+        """Pilot candidates from k = 1 upwards; returns the calibration for ``summary.json``."""
         run = self.run
         hosts = run.desc["hosts"]
-        setup = ProbeSetup(self.sdc_host, hosts[self.sdc_host]["ip"], self.turbines,
+        setup = PilotSetup(hosts[self.sdc_host]["ip"], self.turbines,
                            {wt: wire.turbine_id(hosts[wt]["cluster"], hosts[wt]["number"]) for wt in self.turbines})
         started = time.time()
-        echo = None
+        pilot = None
         trials: list[dict] = []
         try:
             for sw, lines in self.flows.items():
                 self._ofctl(["add-flows", sw, "-"], "\n".join(lines) + "\n")
             if self.turbines:
-                ready = run.out / "calibration_echo.json"
-                ready.unlink(missing_ok=True)
-                echo = run.net.get(self.sdc_host).popen(
-                    [sys.executable, "-m", "sdvisc.probe", "echo", "--bind", setup.sdc_ip, "--out", str(ready)],
-                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-                deadline = time.time() + 10
-                while not ready.exists():
-                    if echo.poll() is not None or time.time() > deadline:
-                        raise RuntimeError(f"calibration: the probe echo on {self.sdc_host} did not start")
-                    time.sleep(0.02)
+                pilot = self._start_pilot(setup)
                 for wt in self.turbines:
-                    sock = udp_socket_in(run.net.get(wt).pid, hosts[wt]["ip"], probe.PROBE_PORT)
-                    probe.enable_rx_timestamps(sock)
+                    sock = udp_socket_in(run.net.get(wt).pid, hosts[wt]["ip"], wire.PORT_TURBINE)
+                    rxstamp.enable(sock)
                     setup.socks[wt] = sock
             self._model(setup)
             for k in CANDIDATES:
@@ -199,97 +212,102 @@ class Calibration:
         finally:
             for sock in setup.socks.values():
                 sock.close()
-            if echo is not None:
-                echo.terminate()
+            if pilot is not None:
+                pilot.terminate()
                 try:
-                    echo.wait(timeout=5)
+                    pilot.wait(timeout=10)
                 except subprocess.TimeoutExpired:
-                    echo.kill()
+                    pilot.kill()
             for sw in self.flows:
                 self._ofctl(["del-flows", sw, f"{PROBE_COOKIE_TEXT}/-1"])
             left = [sw for sw in self.flows if PROBE_COOKIE_TEXT in self._ofctl(["dump-flows", sw])]
             if left:
-                raise RuntimeError(f"calibration: probe rules still on {left} after removing them")
+                raise RuntimeError(f"calibration: pilot rules still on {left} after removing them")
         k, met = choose(trials)
         return {"time_scale": k, "met": met, "turbines": self.turbines, "sdc": self.sdc_host,
-                "limits": {"busy": BUSY_LIMIT, "one_way_p99_sim_ms": ONE_WAY_LIMIT_STEPS * self.step_s * 1e3},
-                "trials": trials, "wall_s": round(time.time() - started, 2),
-                "plant_model": run.scenario.plant.model}
+                "limits": {"busy": BUSY_LIMIT, "round_trip_p99_sim_ms": ROUND_TRIP_LIMIT_STEPS * self.step_s * 1e3},
+                "trials": trials, "wall_s": round(time.time() - started, 2), "plant_model": run.scenario.plant.model}
 
     # ------------------------------------------------------------------ one candidate
-    def _step_model(self, setup: ProbeSetup) -> tuple[float, float]:
-        """One plant step with the remote turbines held at their operating point, then one SDC
-        round on the plant's measurements; returns (plant s, SDC s) of compute."""
-        t0 = time.perf_counter()
+    def _step(self, setup: PilotSetup) -> None:
+        """One plant step with the remote turbines held at their operating point, then one MEAS per
+        ViSC turbine from its namespace, as the plant service sends it."""
         model = setup.model
         model.step()
         meas = model.measurements()
-        if setup.indices:
-            idx = np.asarray(setup.indices)
-            v = meas["v_d"][idx] + 1j * meas["v_q"][idx]
-            i = meas["i_d"][idx] + 1j * meas["i_q"][idx]
-            v_conv = v + complex(FILTER_R_F_PU, FILTER_X_F_PU) * i
-            model.apply_remote(idx, v_conv.real, v_conv.imag, i.real, i.imag)
-        t1 = time.perf_counter()
-        if setup.bank is not None:
-            rows = {name: np.asarray(meas[name])[idx] for name in MEAS_FIELDS}
-            setup.bank.step(np.arange(len(idx)), rows)
-        return t1 - t0, time.perf_counter() - t1
+        idx = np.asarray(setup.indices)
+        v = meas["v_d"][idx] + 1j * meas["v_q"][idx]
+        i = meas["i_d"][idx] + 1j * meas["i_q"][idx]
+        v_conv = v + complex(FILTER_R_F_PU, FILTER_X_F_PU) * i
+        model.apply_remote(idx, v_conv.real, v_conv.imag, i.real, i.imag)
+        setup.seq += 1
+        t_sim = setup.seq * self.step_s
+        dst = (setup.sdc_ip, wire.PORT_SDC)
+        for j, wt in enumerate(setup.turbines):
+            values = {"wt": setup.wids[wt], "seq": setup.seq, "t_sim": t_sim,
+                      **{key: float(meas[key][setup.indices[j]]) for key in MEAS_FIELDS}}
+            now = time.time()
+            setup.sent[(setup.wids[wt], setup.seq)] = time.time_ns()
+            setup.socks[wt].sendto(wire.encode(wire.MsgType.MEAS, values, header=wire.Header.at(setup.seq, now)), dst)
 
-    def _trial(self, setup: ProbeSetup, k: float) -> dict:
+    def _trial(self, setup: PilotSetup, k: float) -> dict:
         period = k * self.step_s
         steps = max(MIN_PROBE_STEPS, int(PROBE_WALL_S / period))
         plant_s = np.empty(steps)
-        sdc_s = np.empty(steps)
-        fwd: dict[str, list[float]] = {wt: [] for wt in setup.turbines}
+        rtt: dict[str, list[float]] = {wt: [] for wt in setup.turbines}
         back: dict[str, list[float]] = {wt: [] for wt in setup.turbines}
-        dst = (setup.sdc_ip, probe.PROBE_PORT)
+        setup.sent.clear()
+        cpu0, wall0 = process_cpu_s(setup.pilot_pid), time.time()
         start = time.perf_counter()
         for n in range(steps):
             delay = start + n * period - time.perf_counter()
             if delay > 0:
                 time.sleep(delay)
-            plant_s[n], sdc_s[n] = self._step_model(setup)
-            for wt, sock in setup.socks.items():
-                sock.sendto(probe.encode(setup.wids[wt], n, time.time_ns()), dst)
-            self._drain(setup, fwd, back)
+            t0 = time.perf_counter()
+            self._drain(setup, rtt, back)
+            self._step(setup)
+            plant_s[n] = time.perf_counter() - t0
         time.sleep(max(0.2, 20 * period))
-        self._drain(setup, fwd, back)
-        per_turbine = {wt: {"to_sdc_ms": delay_summary(fwd[wt]), "to_turbine_ms": delay_summary(back[wt]),
-                            "lost": steps - len(back[wt])} for wt in setup.turbines}
-        worst = max((max(np.percentile(fwd[wt], 99), np.percentile(back[wt], 99)) for wt in setup.turbines
-                     if fwd[wt] and back[wt]), default=None)
-        lost = sum(r["lost"] for r in per_turbine.values())
-        plant_cost, sdc_cost = float(np.mean(plant_s)), float(np.mean(sdc_s))
-        why_not = shortfalls(k, self.step_s, plant_cost, sdc_cost, None if worst is None else worst * 1e-3,
-                             lost if lost > 0.01 * steps * max(1, len(setup.turbines)) else 0)
+        self._drain(setup, rtt, back)
+        sdc_busy = (process_cpu_s(setup.pilot_pid) - cpu0) / (time.time() - wall0)
+        per_turbine = {wt: {"round_trip_ms": delay_summary(rtt[wt]), "to_turbine_ms": delay_summary(back[wt]),
+                            "missing": steps - len(rtt[wt])} for wt in setup.turbines}
+        worst = max((np.percentile(rtt[wt], 99) for wt in setup.turbines if rtt[wt]), default=None)
+        missing = sum(r["missing"] for r in per_turbine.values())
+        plant_cost = float(np.mean(plant_s))
+        why_not = shortfalls(k, self.step_s, plant_cost, sdc_busy, None if worst is None else worst * 1e-3,
+                             missing if missing > 0.01 * steps * max(1, len(setup.turbines)) else 0)
         return {"k": k, "steps": steps, "ok": not why_not, "why_not": why_not,
                 "plant_step_us": {"mean": round(plant_cost * 1e6, 1), "p99": round(float(np.percentile(plant_s, 99)) * 1e6, 1)},
-                "plant_busy": round(plant_cost / period, 3),
-                "sdc_round_us": {"mean": round(sdc_cost * 1e6, 1), "p99": round(float(np.percentile(sdc_s, 99)) * 1e6, 1)},
-                "sdc_busy": round(sdc_cost / period, 3),
-                "one_way_p99_sim_ms": None if worst is None else round(worst / k, 4),
+                "plant_busy": round(plant_cost / period, 3), "sdc_busy": round(sdc_busy, 3),
+                "round_trip_p99_sim_ms": None if worst is None else round(worst / k, 4),
                 "per_turbine_wall": per_turbine}
 
     @staticmethod
-    def _drain(setup: ProbeSetup, fwd: dict, back: dict) -> None:
+    def _drain(setup: PilotSetup, rtt: dict, back: dict) -> None:
         for wt, sock in setup.socks.items():
-            while (got := probe.recv_stamped(sock)) is not None:
+            while (got := rxstamp.recv(sock)) is not None:
                 data, _addr, t_rx = got
-                decoded = probe.decode(data)
-                if decoded is None or decoded[0] != setup.wids[wt] or decoded[3] == 0:
+                try:
+                    msg = wire.decode(data, header=True)
+                except wire.WireError:
                     continue
-                _, _, t_send, t_echo = decoded
-                fwd[wt].append((t_echo - t_send) * 1e-6)
-                back[wt].append((t_rx - t_echo) * 1e-6)
+                if msg.type != wire.MsgType.CTRL:
+                    continue
+                t_send = setup.sent.pop((msg["wt"], msg["meas_seq"]), None)
+                if t_send is None:
+                    continue
+                rtt[wt].append((t_rx - t_send) * 1e-6)
+                if msg.header is not None:
+                    back[wt].append((t_rx - (msg.header.sec * 1_000_000_000 + msg.header.nsec)) * 1e-6)
 
 
 def calibration_line(calibration: dict) -> str:
     """One line for the terminal: what each candidate measured and what was chosen."""
     parts = []
     for t in calibration["trials"]:
-        p99 = t["one_way_p99_sim_ms"]
-        parts.append(f"k={t['k']:g}: plant {t['plant_busy']:.0%}, SDC {t['sdc_busy']:.0%}, one-way p99 "
+        p99 = t["round_trip_p99_sim_ms"]
+        parts.append(f"k={t['k']:g}: plant {t['plant_busy']:.0%}, SDC {t['sdc_busy']:.0%}, MEAS->CTRL p99 "
                      + (f"{p99:.3f} ms" if p99 is not None else "-") + (" ok" if t["ok"] else ""))
     verdict = "chosen" if calibration["met"] else "the largest tried; limits NOT met"
     return f"sdvisc: time scale {calibration['time_scale']:g} ({verdict}): " + "; ".join(parts)

@@ -1,5 +1,6 @@
-"""``time_scale: auto``: the choice of k from measured costs, the temporary probe rules (followed hop
-by hop on the real topology descriptions), the probe datagrams and the echo over real UDP."""
+"""``time_scale: auto``: the choice of k from measured costs, the temporary pilot rules (followed hop
+by hop on the real topology descriptions), the kernel receive stamps, and the SDC pilot (the real
+SDC service) answering MEAS over real UDP."""
 
 from __future__ import annotations
 
@@ -11,20 +12,19 @@ import time
 
 import networkx as nx
 import pytest
-from hypothesis import given
-from hypothesis import strategies as st
 
 from scenarios.calibrate import (
     BUSY_LIMIT,
     CANDIDATES,
-    ONE_WAY_LIMIT_STEPS,
     PROBE_COOKIE_TEXT,
+    ROUND_TRIP_LIMIT_STEPS,
     choose,
-    probe_flows,
+    pilot_flows,
     shortfalls,
 )
 from scenarios.summary import round_trip, time_advice
-from sdvisc import probe
+from sdvisc import rxstamp, wire
+from sdvisc.config import SdcConfig, write_config
 from topologies import topos
 from topologies.base import describe
 
@@ -32,20 +32,21 @@ TS = 0.67e-3
 
 
 def test_real_time_passes_when_everything_fits():
-    assert shortfalls(1, TS, plant_step_s=0.2 * TS, sdc_round_s=0.1 * TS, worst_one_way_p99_wall_s=0.2 * TS) == []
+    assert shortfalls(1, TS, plant_step_s=0.2 * TS, sdc_busy=0.1, worst_round_trip_p99_wall_s=0.6 * TS) == []
 
 
 @pytest.mark.parametrize("k", CANDIDATES)
 def test_each_limit_is_applied_in_simulated_time(k):
     period = k * TS
     assert shortfalls(k, TS, BUSY_LIMIT * period * 1.01, 0.0, None)[0].startswith("plant")
-    assert shortfalls(k, TS, 0.0, BUSY_LIMIT * period * 1.01, None)[0].startswith("SDC")
-    assert shortfalls(k, TS, BUSY_LIMIT * period * 0.99, BUSY_LIMIT * period * 0.99, None) == []
-    # a wall one-way delay of k·Ts/2 is Ts/2 in simulated time: just at the limit
-    limit_wall = ONE_WAY_LIMIT_STEPS * TS * k
+    assert shortfalls(k, TS, 0.0, BUSY_LIMIT * 1.01, None)[0].startswith("SDC")
+    assert shortfalls(k, TS, BUSY_LIMIT * period * 0.99, BUSY_LIMIT * 0.99, None) == []
+    # the plant's step and the round trip together must fit in the share of a sample, in simulated time
+    limit_wall = ROUND_TRIP_LIMIT_STEPS * TS * k
     assert shortfalls(k, TS, 0.0, 0.0, limit_wall * 0.99) == []
-    assert "one-way" in shortfalls(k, TS, 0.0, 0.0, limit_wall * 1.01)[0]
-    assert "lost" in shortfalls(k, TS, 0.0, 0.0, None, lost=3)[0]
+    assert "MEAS->CTRL" in shortfalls(k, TS, 0.0, 0.0, limit_wall * 1.01)[0]
+    assert "MEAS->CTRL" in shortfalls(k, TS, 0.3 * limit_wall, 0.0, 0.75 * limit_wall)[0]
+    assert "missing" in shortfalls(k, TS, 0.0, 0.0, None, lost=3)[0]
 
 
 def test_choose_takes_the_smallest_passing_k_else_the_largest_tried():
@@ -86,70 +87,70 @@ def _walk(desc: dict, flows: dict, src_switch: str, dst_host: str, match: str) -
     ("farm", {}, ["wt1_1", "wt2_1", "wt3_1", "wt5_1"]),
     ("farm", {"clusters": 5, "turbines": 10, "layout": "tower"}, ["wt1_10", "wt4_3"]),
 ])
-def test_probe_rules_carry_each_turbine_to_the_sdc_and_back(name, params, turbines):
+def test_pilot_rules_carry_each_turbine_to_the_sdc_and_back(name, params, turbines):
     desc = describe(topos[name](**params))
     hosts = desc["hosts"]
-    flows = probe_flows(desc, "sdc1", turbines)
+    flows = pilot_flows(desc, "sdc1", turbines)
     g = nx.Graph([(link["a"], link["b"]) for link in desc["links"]])
     for wt in turbines:
-        out = _walk(desc, flows, hosts[wt]["switch"], "sdc1", f"nw_dst={hosts['sdc1']['ip']},")
-        back = _walk(desc, flows, hosts["sdc1"]["switch"], wt, f"nw_dst={hosts[wt]['ip']},")
+        out = _walk(desc, flows, hosts[wt]["switch"], "sdc1", f"nw_dst={hosts['sdc1']['ip']},tp_dst={wire.PORT_SDC}")
+        back = _walk(desc, flows, hosts["sdc1"]["switch"], wt, f"nw_dst={hosts[wt]['ip']},tp_dst={wire.PORT_TURBINE}")
         shortest = nx.shortest_path_length(g, hosts[wt]["switch"], hosts["sdc1"]["switch"])
         assert len(out) - 2 == shortest and len(back) - 2 == shortest  # hop count of the first path
 
 
-def test_probe_rules_name_only_openflow_switches_and_a_missing_path_is_an_error():
+def test_pilot_rules_name_only_openflow_switches_and_a_missing_path_is_an_error():
     desc = describe(topos["paper"]())
-    flows = probe_flows(desc, "sdc1", ["wt1_1"])
+    flows = pilot_flows(desc, "sdc1", ["wt1_1"])
     assert set(flows) <= {n for n, s in desc["switches"].items() if s["openflow"]}
     desc["links"] = []  # every turbine cut off
     with pytest.raises(ValueError, match="no path from wt1_1"):
-        probe_flows(desc, "sdc1", ["wt1_1"])
+        pilot_flows(desc, "sdc1", ["wt1_1"])
 
 
-@given(st.integers(1, 2**31 - 1), st.integers(0, 2**31 - 1), st.integers(1, 2**62), st.integers(0, 2**62))
-def test_probe_round_trips(wid, seq, t_send, t_echo):
-    data = probe.encode(wid, seq, t_send, t_echo)
-    assert len(data) == probe.PAYLOAD_BYTES
-    assert probe.decode(data) == (wid, seq, t_send, t_echo)
-
-
-@given(st.binary(max_size=200))
-def test_anything_else_is_not_a_probe(data):
-    decoded = probe.decode(data)
-    assert decoded is None or data[:4] == probe.MAGIC.to_bytes(4, "big")
-
-
-def test_echo_answers_over_udp_with_its_receive_stamp(tmp_path):
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        port = s.getsockname()[1]
-    ready = tmp_path / "echo.json"
-    echo = subprocess.Popen([sys.executable, "-m", "sdvisc.probe", "echo", "--bind", "127.0.0.1", "--port", str(port),
-                             "--out", str(ready)])
+def test_the_sdc_pilot_serves_meas_over_udp_and_the_kernel_stamps_the_answer(tmp_path):
+    """The real SDC service, started as the calibration starts it, answers each MEAS of a served
+    turbine with its CTRL; the receive stamp is the kernel's, after the send."""
+    cfg = SdcConfig(step_s=TS, controller_vip="10.0.0.254", out_dir=str(tmp_path), sdc_id=1, role="primary",
+                    capacity=4, bind_ip="127.0.9.1", realtime_priority=False)
+    cfg_path = write_config(cfg, tmp_path / "sdc.json")
+    ready = tmp_path / "ready.json"
+    pilot = subprocess.Popen([sys.executable, "-m", "sdc_unit.pilot", "--config", str(cfg_path), "--serve", "101",
+                              "--ready", str(ready)])
+    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     try:
-        deadline = time.time() + 20
+        deadline = time.time() + 60
         while not ready.exists():
-            assert echo.poll() is None and time.time() < deadline, "the echo did not start"
-            time.sleep(0.02)
-        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-        sock.bind(("127.0.0.1", 0))
-        probe.enable_rx_timestamps(sock)
-        sock.sendto(b"garbage", ("127.0.0.1", port))
-        t_send = time.time_ns()
-        sock.sendto(probe.encode(101, 7, t_send), ("127.0.0.1", port))
-        sock.settimeout(5)
-        sock.setblocking(True)
-        data, _addr, t_rx = probe.recv_stamped(sock)
-        wid, seq, sent, t_echo = probe.decode(data)
-        assert (wid, seq, sent) == (101, 7, t_send)
-        assert t_send < t_echo <= t_rx  # stamped by the kernel on each side, one clock
-        sock.close()
+            assert pilot.poll() is None and time.time() < deadline, "the pilot did not start"
+            time.sleep(0.05)
+        sock.bind(("127.0.9.2", wire.PORT_TURBINE))  # the SDC answers the MEAS's source at the turbine port
+        rxstamp.enable(sock)
+        sock.settimeout(10)
+        meas = {"v_d": 1.0, "v_q": 0.0, "i_d": 0.5, "i_q": 0.1, "p": 0.5, "q": -0.1, "v_dc": 1.0, "omega_meas": 1.0}
+        answers = []
+        for seq in range(1, 4):
+            t_send = time.time_ns()
+            sock.sendto(wire.encode(wire.MsgType.MEAS, {"wt": 101, "seq": seq, "t_sim": seq * TS, **meas},
+                                    header=wire.Header.at(seq, time.time())), ("127.0.9.1", wire.PORT_SDC))
+            data, _addr, t_rx = rxstamp.recv(sock)
+            answers.append(wire.decode(data, header=True))
+            assert t_rx > t_send
+        assert [m.type for m in answers] == [wire.MsgType.CTRL] * 3
+        assert [m["meas_seq"] for m in answers] == [1, 2, 3] and all(m["wt"] == 101 for m in answers)
     finally:
-        echo.terminate()
-        echo.wait(timeout=10)
-    counts = json.loads(ready.read_text())
-    assert counts["done"] and counts["echoed"] == 1 and counts["malformed"] == 1
+        sock.close()
+        pilot.terminate()
+        pilot.wait(timeout=20)
+    done = json.loads(ready.read_text())
+    assert done["done"] and done["served"] == {"wt1_1": 3} and done["cpu_s"] > 0
+
+
+def test_nothing_waiting_is_none_not_an_error():
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        sock.setblocking(False)
+        rxstamp.enable(sock)
+        assert rxstamp.recv(sock) is None
 
 
 def test_round_trip_histogram_summary():

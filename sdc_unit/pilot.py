@@ -1,0 +1,70 @@
+"""The real SDC service for the time-scale calibration (``time_scale: auto``, scenarios/calibrate.py).
+
+``python -m sdc_unit.pilot --config FILE --serve WID[,WID…] --ready FILE`` builds the
+:class:`sdc_unit.service.SdcService` of the run's configuration, starts an instance for each turbine
+id as a START_INSTANCE from the SDN app would (the app is not running yet during the calibration),
+and serves MEAS → CTRL until SIGTERM. It then writes its CPU seconds and the service's summary to
+the ready file. The calibration thus measures the SDC's real per-round work, not a model of it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+from pathlib import Path
+
+from sdc_unit.service import SdcService
+from sdvisc import wire
+from sdvisc.config import ConfigError, SdcConfig, load_config
+from sdvisc.jsonlines import write_json_atomic
+from sdvisc.netns import raise_priority
+from sdvisc.vocabulary import REQUEST_PARAM_WORDS
+
+
+def start_request(wid: int, req_id: int, header: bool) -> wire.Message:
+    """A START_INSTANCE for turbine ``wid`` with default ViSC parameters, as the SDN app sends it."""
+    values = {"req_id": req_id, "cmd": int(wire.Command.START_INSTANCE), "wt": wid, "sdc_ip": 0,
+              **{k: 0 for k in REQUEST_PARAM_WORDS}}
+    data = wire.encode(wire.MsgType.REQUEST, values, header=wire.Header(req_id, 0, 0) if header else None)
+    return wire.decode(data, header=header)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(prog="python -m sdc_unit.pilot", description=__doc__.split("\n\n")[0])
+    parser.add_argument("--config", required=True)
+    parser.add_argument("--serve", required=True, help="turbine ids, comma-separated")
+    parser.add_argument("--ready", type=Path, required=True)
+    args = parser.parse_args(argv)
+    try:
+        cfg = load_config(SdcConfig, args.config)
+    except ConfigError as exc:
+        print(f"sdc pilot: {exc}", file=sys.stderr)
+        return 2
+    service = SdcService(cfg)
+    service.bank.warm_up()
+    if cfg.realtime_priority:
+        raise_priority()
+    for n, wid in enumerate(int(w) for w in args.serve.split(",")):
+        service._on_request(start_request(wid, n + 1, cfg.header), cfg.controller_vip, service.clock.now())
+
+    def stop(*_):
+        service.running = False
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGINT, stop)
+    write_json_atomic(args.ready, {"ready": True, "instances": len(service.instances)})
+    cpu0 = time.process_time()
+    try:
+        service.run()
+    finally:
+        summary = service.summary()
+        write_json_atomic(args.ready, {"ready": True, "done": True, "cpu_s": time.process_time() - cpu0,
+                                       "rejected": summary["rejected"],
+                                       "served": {n: t.get("ctrl_tx", 0) for n, t in summary["turbines"].items()}})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
