@@ -53,8 +53,14 @@ def command(child, line: str, pattern: str, timeout_s: float = 30.0) -> re.Match
     return child.match
 
 
+def status(child) -> tuple[float, str]:
+    """Simulated time and down links, from `status` (read to its last line: nothing stale left behind)."""
+    match = command(child, "status", r"t_sim=(\d+\.\d+) s.*?down links: (.*?)   openflow: [^\n]*\n")
+    return float(match.group(1)), match.group(2)
+
+
 def simulated_time(child) -> float:
-    return float(command(child, "status", r"t_sim=(\d+\.\d+) s").group(1))
+    return status(child)[0]
 
 
 def wait_past(child, t_s: float) -> float:
@@ -90,7 +96,7 @@ def test_cli_session_stays_live_after_the_timeline_and_reports_the_recovery(tmp_
                                   r"restored after (\d+) ms")
         t_dr, new_path, restored_ms = float(line.group(1)), line.group(2).split("-"), int(line.group(3))
         assert t_dr > t and f"{a}-{b}" not in "-".join(new_path) and f"{b}-{a}" not in "-".join(new_path)
-        assert command(child, "status", r"down links: (.*?)\s{3}").group(1) == f"[['{a}', '{b}']]"
+        assert status(child)[1] == f"[['{a}', '{b}']]"
         command(child, "events 50", r"plant\s+ctrl_restored\s+wt=wt1_1")  # the event log has it all
         assert re.search(r"sdn_app\s+dr\s+wt=wt1_1", child.before)
         t_before_exit = simulated_time(child)
