@@ -17,9 +17,12 @@ arrive apart, the usual case with few turbines); ``batch`` = the N MEAS of one s
 The fit over N of the ``batch`` rounds gives the fixed cost per round and the cost per instance.
 
 CPU is the process's (``time.process_time``); the median of ``--repeat`` repetitions is reported.
+``--gap-ms G`` sleeps G ms before each in-memory round and counts only the rounds' own CPU: what a
+round costs when, as in a run, the service sleeps between MEAS and other processes use the caches.
 
     .venv/bin/python benchmarks/sdc_round_cost.py                    # ~15 s
     .venv/bin/python benchmarks/sdc_round_cost.py --udp
+    .venv/bin/python benchmarks/sdc_round_cost.py --ns 4 --modes single --gap-ms 1.3
 """
 
 from __future__ import annotations
@@ -109,8 +112,10 @@ def rounds_of(stream: list[list[bytes]], mode: str) -> list[list[bytes]]:
     return [[d] for sample in stream for d in sample]
 
 
-def run_memory(n: int, mode: str, rounds: int, warm: int) -> dict:
-    """``rounds`` service rounds after ``warm`` unmeasured ones; µs per round (perf_counter)."""
+def run_memory(n: int, mode: str, rounds: int, warm: int, gap_s: float = 0.0) -> dict:
+    """``rounds`` service rounds after ``warm`` unmeasured ones; µs per round (perf_counter).
+    ``gap_s`` > 0: sleep that long before each round (as the service waits for the next MEAS) and
+    count only the rounds' own CPU (``time.thread_time``): a round on cold caches."""
     sock = MemorySocket()
     svc = make_service(n, sock, "10.0.0.254")
     per_sample = 1 if mode == "batch" else n
@@ -124,10 +129,18 @@ def run_memory(n: int, mode: str, rounds: int, warm: int) -> dict:
     receive, serve = svc.receive, svc._serve
     for datagrams, now in feeds[:warm]:
         serve(receive(datagrams, now), now)
-    cpu0, t0 = time.process_time(), time.perf_counter()
-    for datagrams, now in feeds[warm:]:
-        serve(receive(datagrams, now), now)
-    wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
+    if gap_s > 0:
+        wall = cpu = 0.0
+        for datagrams, now in feeds[warm:]:
+            time.sleep(gap_s)
+            cpu0, t0 = time.thread_time(), time.perf_counter()
+            serve(receive(datagrams, now), now)
+            wall, cpu = wall + time.perf_counter() - t0, cpu + time.thread_time() - cpu0
+    else:
+        cpu0, t0 = time.process_time(), time.perf_counter()
+        for datagrams, now in feeds[warm:]:
+            serve(receive(datagrams, now), now)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     expected = (rounds + warm) * (n if mode == "batch" else 1) + n  # + the REPLY to each START_INSTANCE
     return {"n": n, "rounds": mode, "us_per_round": round(wall / rounds * 1e6, 2),
             "cpu_us_per_round": round(cpu / rounds * 1e6, 2), "ctrl_sent": sock.sent, "ctrl_expected": expected,
@@ -187,6 +200,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--warm", type=int, default=200, help="unmeasured rounds first")
     ap.add_argument("--repeat", type=int, default=3, help="timed repetitions per case (median reported)")
     ap.add_argument("--udp", action="store_true", help="over loopback UDP sockets instead of an in-memory socket")
+    ap.add_argument("--gap-ms", type=float, default=0.0,
+                    help="in-memory rounds: sleep this long before each one and count only the rounds' CPU "
+                         "(cold caches, as a service woken by each MEAS)")
     args = ap.parse_args(argv)
     ns = [int(x) for x in args.ns.split(",")]
     modes = args.modes.split(",")
@@ -196,12 +212,13 @@ def main(argv: list[str] | None = None) -> int:
         for mode in modes:
             if mode == "single" and n > 4 and "batch" in modes:
                 continue  # one turbine per round costs the same whatever N: measured at N <= 4
-            fn = run_udp if args.udp else run_memory
-            reps = [fn(n, mode, args.rounds, args.warm) for _ in range(args.repeat)]
+            reps = [run_udp(n, mode, args.rounds, args.warm) if args.udp
+                    else run_memory(n, mode, args.rounds, args.warm, args.gap_ms * 1e-3) for _ in range(args.repeat)]
             best = sorted(reps, key=lambda r: r["cpu_us_per_round"])[len(reps) // 2]
             best["cpu_us_per_round_all"] = [r["cpu_us_per_round"] for r in reps]
             cases.append(best)
-    result = {"benchmark": "sdc_round_cost", "socket": "udp" if args.udp else "memory", "cases": cases}
+    result = {"benchmark": "sdc_round_cost", "socket": "udp" if args.udp else "memory", "gap_ms": args.gap_ms,
+              "cases": cases}
     batch = [(c["n"], c["cpu_us_per_round"]) for c in cases if c["rounds"] == "batch"]
     if len(batch) >= 2:
         slope, icpt = np.polyfit([b[0] for b in batch], [b[1] for b in batch], 1)
