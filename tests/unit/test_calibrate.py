@@ -32,7 +32,7 @@ TS = 0.67e-3
 
 
 def test_real_time_passes_when_everything_fits():
-    assert shortfalls(1, TS, plant_step_s=0.2 * TS, sdc_busy=0.1, worst_round_trip_p99_wall_s=0.6 * TS) == []
+    assert shortfalls(1, TS, plant_step_s=0.1 * TS, sdc_busy=0.1, worst_round_trip_p99_wall_s=0.3 * TS) == []
 
 
 @pytest.mark.parametrize("k", CANDIDATES)
