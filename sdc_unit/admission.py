@@ -40,6 +40,8 @@ T_SIM_MAX_S = 1e7
 """Largest plausible simulation time in a MEAS, s (only garbage is beyond it)."""
 CHECKED_ROWS = ("t_sim", *MEAS_FIELDS)
 """The MEAS values the range check reads, in this order (consecutive words of the datagram)."""
+ADMIT_WORDS = ("hdr_sec", "hdr_nsec", "wt", "seq", "t_sim")
+"""What the service reads of each MEAS to admit it (the header's send time only with the header)."""
 CONFIRM_WINDOW = 32
 """A jump is confirmed by a later datagram at most this many samples after it."""
 

@@ -60,8 +60,6 @@ from sdvisc.vocabulary import MEAS_FIELDS, REQUEST_PARAM_WORDS
 from sdvisc.wire_batch import decode_batch, float_rows, is_type, record_dtype
 
 HEARTBEAT_S = 0.01
-ADMIT_WORDS = ("hdr_sec", "hdr_nsec", "wt", "seq", "t_sim")
-"""What the admission reads of each MEAS (the header's send time only with the header)."""
 
 
 @dataclass
@@ -249,7 +247,7 @@ class SdcService:
         rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
         self.rx_records = rec
         # the header's send time and the admission's words of every row, as Python values, in one call
-        words = rec[list(ADMIT_WORDS if self.header else ADMIT_WORDS[2:])].tolist()
+        words = rec[list(admission.ADMIT_WORDS if self.header else admission.ADMIT_WORDS[2:])].tolist()
         self.rx_rows = float_rows(rec, admission.CHECKED_ROWS)  # t_sim, then the MEAS_FIELDS
         out_of_range = admission.out_of_range_matrix(self.rx_rows).tolist()  # one vectorised check per batch
         sources = index.tolist()
@@ -308,12 +306,10 @@ class SdcService:
         if rows != list(range(len(rec))):  # usually every row, in order
             rec, meas_rows = rec[rows], meas_rows[:, rows]
         valid, ctrl = step_round(self.bank, slots, rec, backup=self.role == "backup", meas_rows=meas_rows)
-        sent = []
-        for inst, ok in zip(insts, valid.tolist()):
-            if ok:
-                sent.append(inst)
-            else:
-                inst.counts["ctrl_invalid"] += 1
+        oks = valid.tolist()
+        for inst in (i for i, ok in zip(insts, oks) if not ok):
+            inst.counts["ctrl_invalid"] += 1
+        sent = [i for i, ok in zip(insts, oks) if ok]
         if not sent:
             return
         for inst in sent:
