@@ -92,6 +92,7 @@ class Feedback:
         self.faults: list[dict] = []  # fault actions so far (for causes)
         self.impaired: dict[tuple, dict] = {}  # links with an impairment now (their last impair action)
         self.pauses: dict[str, tuple[float, int]] = {}  # per turbine: last pause line shown, pauses not shown since
+        self.no_controller = False  # no SDN application runs (the runner's no_controller, until one restarts)
 
     def feed(self, events: list[dict], now: float) -> list[str]:
         """Take the events that arrived since the last call (any order); ``now``: scenario time."""
@@ -137,6 +138,8 @@ class Feedback:
         loss = self.losses.get(wt)
         if loss is None:
             loss = self.losses[wt] = _Loss(wt, t_loss, self._cause(t_loss))
+            if self.no_controller:
+                loss.steps.append("no SDN application running to react")
             for p in self.pending:
                 if p.action.get("type") in FAULT_ACTIONS and p.t <= t_loss + 0.01:
                     p.caused_loss = True
@@ -244,9 +247,12 @@ class Feedback:
         return [f"{e.get('sdc')}: heartbeats again at {_s(t)}"]
 
     def _on_no_controller(self, e: dict, t: float) -> list[str]:
+        self.no_controller = True
         return [f"no SDN application running since {_s(t)}: switches keep their flows, nothing reacts to failures"]
 
     def _on_service_restarted(self, e: dict, t: float) -> list[str]:
+        if str(e.get("process", "")).startswith("controller"):
+            self.no_controller = False
         return [f"{e.get('process')}: exited with {e.get('exit_code')}; restarted at {_s(t)} (restart {e.get('restart')})"]
 
     def _on_controller_takeover(self, e: dict, t: float) -> list[str]:

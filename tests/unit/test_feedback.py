@@ -52,6 +52,19 @@ def test_a_loss_nothing_repairs_is_reported_open_then_closed():
     assert lines == ["wt1_1: control restored at 12.50 s, 7.50 s after it was lost"]
 
 
+def test_a_loss_while_no_sdn_app_runs_says_why_nothing_reacts():
+    fb = Feedback(follow_s=2.0)
+    assert fb.feed([{"t": 2.589, "source": "runner", "type": "no_controller"}], 2.6) == [
+        "no SDN application running since 2.59 s: switches keep their flows, nothing reacts to failures"]
+    fb.feed([cli_link_down(3.141), {"t": 3.172, "source": "plant", "type": "ctrl_lost", "wt": "wt1_1", "t_loss": 3.141}],
+            3.2)
+    assert fb.feed([], 5.2) == ["wt1_1: control lost at 3.14 s; no SDN application running to react; not restored 2.0 s later"]
+    fb.feed([{"t": 6.0, "source": "runner", "type": "service_restarted", "process": "controller", "exit_code": -9,
+              "restart": 1}], 6.0)
+    fb.feed([{"t": 7.0, "source": "plant", "type": "ctrl_lost", "wt": "wt1_2", "t_loss": 6.97}], 7.0)
+    assert fb.losses["wt1_2"].steps == []
+
+
 def test_an_action_that_interrupts_nothing_says_so_after_quiet_s():
     fb = Feedback(quiet_s=0.5)
     fb.feed([{"t": 3.0, "t_effective": 3.0, "source": "cli", "type": "link_down", "a": "s2", "b": "s3"}], 3.0)
