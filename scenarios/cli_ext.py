@@ -37,7 +37,9 @@ class TestbedCLI(SessionCommands, CLI):
               f"  late_steps={st.get('late_steps', 0)}"
               f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
         print(f"ViSC turbines: {', '.join(st.get('streaming', [])) or '-'}   active SDC: {tables.get('active_sdc')}")
-        print(f"down links: {tables.get('down_links') or '-'}   openflow: {sdn.get('openflow', {})}")
+        taken = ", ".join(f"{a}-{b}" for a, b in sorted(self.testbed.links_down)) or "-"  # by this run, now
+        seen = ", ".join("-".join(link) for link in tables.get("down_links") or []) or "-"  # published every 0.1 s
+        print(f"down links: {taken} (seen by the SDN app: {seen})   openflow: {sdn.get('openflow', {})}")
         for impaired in self.testbed.impairments.status_lines():
             print(f"impaired link {impaired}")
         if not self.testbed.controllers_running():
