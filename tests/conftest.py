@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import subprocess
 from pathlib import Path
 
@@ -21,6 +22,15 @@ def network_ready() -> str | None:
     if subprocess.run(["ovs-vsctl", "--timeout=3", "show"], capture_output=True).returncode != 0:
         return "Open vSwitch daemons not running (./testbed test starts them)"
     return None
+
+
+def pytest_configure(config):
+    """Tests interrupt runs with SIGINT on purpose (Ctrl-C at a prompt, a killed process group). A
+    shell that starts the suite as a background job without job control hands it an *ignored*
+    SIGINT, which every child would inherit (ignored signals survive exec): give the children the
+    default disposition back. A caught signal is reset to the default in an exec'd child."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_collection_modifyitems(config, items):
