@@ -1,0 +1,49 @@
+"""``python -m report [--quick] [--only F4,C2] [--out DIR]``: run the paper's experiments and write
+DIR/index.html, claims.json and the figures (PNG and SVG). Exit status 0 when every selected
+experiment ran (whatever its verdicts), 1 when one failed, 2 on a bad option."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from report.catalogue import EXPERIMENTS
+from report.registry import select
+from report.run import run_report
+
+DEFAULT_OUT = Path("results/report")
+
+
+def parse(argv: list[str]) -> argparse.Namespace:
+    ap = argparse.ArgumentParser(prog="python -m report", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="coarser searches and shorter windows (minutes, not tens)")
+    ap.add_argument("--only", default=None, metavar="IDS",
+                    help="comma-separated experiments, e.g. F4,C2 (known: " + ",".join(e.id for e in EXPERIMENTS) + ")")
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output directory (default {DEFAULT_OUT}/)")
+    ap.add_argument("--list", action="store_true", help="list the experiments and their claims, run nothing")
+    return ap.parse_args(argv)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    args = parse(argv)
+    try:
+        chosen = select(EXPERIMENTS, args.only)
+    except ValueError as exc:
+        print(f"report: {exc}", file=sys.stderr)
+        return 2
+    if args.list:
+        for e in chosen:
+            print(f"{e.id:3} {e.kind:8} {e.paper_figure:24} {e.title}")
+            for c in e.claims:
+                print(f"      {c.id:6} {c.text} [paper: {c.paper}]")
+        return 0
+    data = run_report(chosen, args.out, args.quick, argv)
+    print(f"report: {args.out}/index.html, claims.json ({data['wall_s']} s; "
+          + ", ".join(f"{n} {v}" for v, n in data["summary"].items() if n) + ")")
+    return 1 if any(e["status"] == "failed" for e in data["experiments"]) else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,10 @@
+"""Every experiment of the report, in the paper's order."""
+
+from __future__ import annotations
+
+from report.exp_grid import F3, F4, F5, F6
+from report.exp_parallel import F8
+from report.exp_sdc import F1, F2
+from report.exp_weak import F7, F9
+
+EXPERIMENTS = (F1, F2, F3, F4, F5, F6, F7, F8, F9)

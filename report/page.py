@@ -1,0 +1,98 @@
+"""index.html: one self-contained page (figures embedded as data URIs, no external files or
+scripts): the machine and time scale, the claims table, each experiment with its figures, the
+commands."""
+
+from __future__ import annotations
+
+import base64
+from html import escape
+from pathlib import Path
+
+STYLE = """
+body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;color:#222}
+table{border-collapse:collapse;width:100%;font-size:0.88em;margin:0.6em 0}
+th,td{border:1px solid #ccc;padding:0.3em 0.45em;vertical-align:top;text-align:left}
+th{background:#f0f0f0} code,pre{background:#f6f6f6;padding:0 0.2em;font-size:0.92em}
+pre{padding:0.5em;overflow-x:auto;white-space:pre-wrap}
+.v-yes{background:#d9f2d9}.v-partly{background:#fff2c2}.v-no{background:#f8d4d4}
+.v-failed{background:#e6c3f0}.v-not-run{background:#e4e4e4}
+figure{margin:1em 0}figcaption{font-size:0.85em;font-style:italic;max-width:900px}
+img{max-width:100%;border:1px solid #ddd}.small{font-size:0.85em;color:#555}
+"""
+
+
+def _verdict_cell(verdict: str) -> str:
+    return f'<td class="v-{escape(verdict.replace(" ", "-"))}"><b>{escape(verdict)}</b></td>'
+
+
+def _machine(data: dict) -> str:
+    b, a = data["machine"]["before"], data["machine"]["after"]
+    return (f"<p>{b['cpu_count']} CPUs, kernel <code>{escape(b['kernel'])}</code>, Python {escape(b['python'])}; "
+            f"load average (1, 5, 15 min) {b['load_average']} at the start, {a['load_average']} at the end; "
+            f"written {escape(a['written'])}; the whole report took {data['wall_s']} s"
+            f"{' (--quick: coarser searches, shorter windows)' if data['quick'] else ''}.</p>")
+
+
+def _claims(rows: list[dict]) -> str:
+    head = ("<tr><th>claim</th><th>the paper says</th><th>paper's value</th><th>this testbed</th>"
+            "<th>reproduced</th><th>reason / evidence</th><th>command</th></tr>")
+    body = "".join(
+        f"<tr><td><a href='#{escape(r['experiment'])}'>{escape(r['id'])}</a></td><td>{escape(r['claim'])}</td>"
+        f"<td>{escape(r['paper'])}</td><td>{escape(r['testbed'])}</td>{_verdict_cell(r['verdict'])}"
+        f"<td>{escape(r['reason'])}</td><td><code>{escape(r['command'])}</code></td></tr>" for r in rows)
+    return f"<table>{head}{body}</table>"
+
+
+def _experiments_table(exps: list[dict]) -> str:
+    head = "<tr><th>experiment</th><th>paper figure</th><th>how</th><th>status</th><th>wall time</th><th>time scale</th></tr>"
+    body = "".join(
+        f"<tr><td><a href='#{escape(e['id'])}'>{escape(e['id'])}</a> {escape(e['title'])}</td>"
+        f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']))}"
+        f"<td>{e['wall_s']} s</td><td>{escape(str(e['time_scale']))}</td></tr>" for e in exps)
+    return f"<table>{head}{body}</table>"
+
+
+def _status_class(status: str) -> str:
+    return {"ok": "yes"}.get(status, status)
+
+
+def _figure(fig: dict, out_dir: Path) -> str:
+    png = out_dir / fig["png"]
+    src = "data:image/png;base64," + base64.b64encode(png.read_bytes()).decode() if png.exists() else ""
+    return (f"<figure><img alt='{escape(fig['name'])}' src='{src}'><figcaption>{escape(fig['caption'])} "
+            f"<span class='small'>({escape(fig['png'])}, {escape(fig['svg'])})</span></figcaption></figure>")
+
+
+def _experiment(e: dict, out_dir: Path) -> str:
+    parts = [f"<h3 id='{escape(e['id'])}'>{escape(e['id'])}: {escape(e['title'])} "
+             f"<span class='small'>({escape(e['paper_figure'])}; {escape(e['kind'])}; {escape(e['status'])}, "
+             f"{e['wall_s']} s)</span></h3>"]
+    if e["scope"]:
+        parts.append(f"<p>{escape(e['scope'])}</p>")
+    if e["error"]:
+        parts.append(f"<p><b>{escape(e['status'])}:</b></p><pre>{escape(e['error'])}</pre>")
+    parts.append(f"<p class='small'>command: <code>{escape(e['command'])}</code></p>")
+    parts += [f"<p class='small'>{escape(n)}</p>" for n in e["notes"]]
+    parts += [_figure(f, out_dir) for f in e["figures"]]
+    return "\n".join(parts)
+
+
+def render(data: dict, out_dir: Path) -> str:
+    s = data["summary"]
+    tally = ", ".join(f"{n} {v}" for v, n in s.items() if n)
+    return "\n".join([
+        "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
+        "<title>SDViSC testbed: the paper's Section IV reproduced</title>",
+        f"<style>{STYLE}</style></head><body>",
+        "<h1>SDViSC testbed: the paper's Section IV, claim by claim</h1>",
+        f"<p>Command: <code>{escape(data['command'])}</code>. Claims: {escape(tally)}. The paper's values are typed "
+        "from the paper; every value in the column <i>this testbed</i> and every verdict is computed by the "
+        "experiment (tolerances in report/verdicts.py: a number within 10 % of the paper's is reproduced, within "
+        "35 % partly).</p>",
+        "<h2>Machine and time scale</h2>", _machine(data),
+        "<h2>Experiments</h2>", _experiments_table(data["experiments"]),
+        "<h2>Claims</h2>", _claims(data["claims"]),
+        "<h2>Figures and details</h2>",
+        *[_experiment(e, out_dir) for e in data["experiments"]],
+        "</body></html>",
+    ])

@@ -1,0 +1,93 @@
+"""What an experiment is: the paper's claims it checks (typed from the paper, the only hand-typed
+side of the report), how it runs (offline or cyber-in-the-loop) and what it found."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+VERDICTS = ("yes", "partly", "no")  # what a computed finding can say
+NOT_EVALUATED = ("failed", "not run")  # what the report says when no finding exists
+
+
+@dataclass(frozen=True)
+class PaperClaim:
+    """One claim of the paper's Section IV, as the paper states it."""
+
+    id: str  # e.g. "F6.b"
+    text: str  # the claim in words
+    paper: str  # the paper's value, as printed
+
+
+@dataclass
+class Finding:
+    """What an experiment measured for one claim; ``verdict`` is computed, never typed."""
+
+    testbed: str  # this testbed's value, formatted from ``measured``
+    verdict: str  # one of VERDICTS
+    reason: str = ""  # why not (with the evidence) where the verdict is not "yes"; may explain a "yes"
+    measured: dict = field(default_factory=dict)  # the raw numbers behind ``testbed``
+
+    def __post_init__(self) -> None:
+        if self.verdict not in VERDICTS:
+            raise ValueError(f"verdict {self.verdict!r} is not one of {VERDICTS}")
+        if self.verdict != "yes" and not self.reason.strip():
+            raise ValueError(f"a '{self.verdict}' verdict needs its reason (with the evidence): {self.testbed}")
+
+
+@dataclass
+class Figure:
+    name: str  # file stem in the output directory
+    caption: str  # the paper's claim the figure shows
+    png: Path
+    svg: Path
+
+
+@dataclass
+class Context:
+    """What an experiment gets: the options and a place for its figures and notes."""
+
+    out_dir: Path
+    quick: bool = False
+    figures: list[Figure] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    numbers: dict = field(default_factory=dict)  # extra measured values for claims.json
+
+
+@dataclass(frozen=True)
+class Experiment:
+    id: str  # "F1" ... "F9", "C1" ... "C3"
+    title: str
+    paper_figure: str  # which of the paper's figures it redraws
+    kind: str  # "offline" (one process, no network) or "cyber" (scenario through the network)
+    claims: tuple[PaperClaim, ...]
+    run: Callable[[Context], dict[str, Finding]]
+    command: str  # how to run it alone
+    scope: str = ""  # what it runs and what it cannot (e.g. "offline only: <reason>")
+
+    def __post_init__(self) -> None:
+        if self.kind not in ("offline", "cyber"):
+            raise ValueError(f"experiment kind {self.kind!r}")
+        for claim in self.claims:
+            if not claim.id.startswith(self.id + "."):
+                raise ValueError(f"claim {claim.id} does not belong to experiment {self.id}")
+
+
+def select(experiments: Iterable[Experiment], only: str | None) -> list[Experiment]:
+    """The experiments named in ``only`` ("F4,C2", case-insensitive), in registry order; all if None.
+    An unknown name is an error naming the known ones."""
+    experiments = list(experiments)
+    if not only:
+        return experiments
+    wanted = [w.strip().upper() for w in only.split(",") if w.strip()]
+    known = {e.id.upper(): e for e in experiments}
+    unknown = [w for w in wanted if w not in known]
+    if unknown:
+        raise ValueError(f"unknown experiment(s) {', '.join(unknown)}; known: {', '.join(known)}")
+    return [e for e in experiments if e.id.upper() in wanted]
+
+
+class NotRun(Exception):
+    """Raised by an experiment that cannot run here (e.g. a cyber experiment without root); the
+    report shows it as "not run" with this reason, the others still run."""

@@ -1,0 +1,118 @@
+"""Runs the selected experiments one after the other, each isolated (a failure is recorded with
+its error and the next one runs), prints a progress line per experiment and writes claims.json
+and index.html."""
+
+from __future__ import annotations
+
+import json
+import time
+import traceback
+from collections import Counter
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from report import machine, page
+from report.registry import VERDICTS, Context, Experiment, Figure, Finding, NotRun
+
+
+@dataclass
+class Outcome:
+    experiment: Experiment
+    status: str  # "ok", "failed", "not run"
+    error: str = ""
+    wall_s: float = 0.0
+    findings: dict[str, Finding] = field(default_factory=dict)
+    figures: list[Figure] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+    numbers: dict = field(default_factory=dict)
+
+
+def command_for(exp: Experiment, quick: bool) -> str:
+    cmd = f"./testbed report --only {exp.id}" + (" --quick" if quick else "")
+    return cmd + (f"  (itself: {exp.command})" if exp.command else "")
+
+
+def run_one(exp: Experiment, out_dir: Path, quick: bool) -> Outcome:
+    ctx = Context(out_dir=out_dir, quick=quick)
+    t0 = time.perf_counter()
+    try:
+        findings = exp.run(ctx)
+        outcome = Outcome(exp, "ok", findings=dict(findings))
+    except NotRun as exc:
+        outcome = Outcome(exp, "not run", error=str(exc))
+    except Exception as exc:  # noqa: BLE001 - one experiment's failure must not stop the others
+        tb = traceback.format_exc(limit=6)
+        outcome = Outcome(exp, "failed", error=f"{type(exc).__name__}: {exc}\n{tb}")
+    outcome.wall_s = time.perf_counter() - t0
+    outcome.figures, outcome.notes, outcome.numbers = ctx.figures, ctx.notes, ctx.numbers
+    return outcome
+
+
+def claim_rows(outcome: Outcome, quick: bool) -> list[dict]:
+    """One row per paper claim of the experiment; a claim without a finding says why."""
+    rows = []
+    for claim in outcome.experiment.claims:
+        row = {"id": claim.id, "experiment": outcome.experiment.id, "claim": claim.text, "paper": claim.paper,
+               "command": command_for(outcome.experiment, quick)}
+        finding = outcome.findings.get(claim.id)
+        if finding is not None:
+            row.update(testbed=finding.testbed, verdict=finding.verdict, reason=finding.reason,
+                       measured=finding.measured)
+        else:
+            first_line = outcome.error.splitlines()[0] if outcome.error else "the experiment computed no finding for it"
+            verdict = "not run" if outcome.status == "not run" else "failed"
+            row.update(testbed="—", verdict=verdict, reason=first_line, measured={})
+        rows.append(row)
+    return rows
+
+
+def summarise(rows: list[dict]) -> dict:
+    counts = Counter(r["verdict"] for r in rows)
+    return {v: counts.get(v, 0) for v in (*VERDICTS, "failed", "not run")}
+
+
+def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: list[str],
+               progress: Callable[[str], None] = print) -> dict:
+    out_dir.mkdir(parents=True, exist_ok=True)
+    started = time.time()
+    machine_before = machine.describe()
+    outcomes = []
+    for i, exp in enumerate(experiments, 1):
+        progress(f"report: [{i}/{len(experiments)}] {exp.id} {exp.title} ({exp.kind}) …")
+        outcome = run_one(exp, out_dir, quick)
+        rows = claim_rows(outcome, quick)
+        tally = ", ".join(f"{n} {v}" for v, n in summarise(rows).items() if n)
+        detail = f": {outcome.error.splitlines()[0]}" if outcome.error else ""
+        progress(f"report: [{i}/{len(experiments)}] {exp.id} {outcome.status} in {outcome.wall_s:.1f} s"
+                 f" ({tally or 'no claims'}){detail}")
+        outcomes.append(outcome)
+    rows = [row for o in outcomes for row in claim_rows(o, quick)]
+    data = {
+        "report_version": 1,
+        "command": "python -m report " + " ".join(argv),
+        "quick": quick,
+        "wall_s": round(time.time() - started, 1),
+        "machine": {"before": machine_before, "after": machine.describe()},
+        "summary": summarise(rows),
+        "experiments": [{
+            "id": o.experiment.id, "title": o.experiment.title, "paper_figure": o.experiment.paper_figure,
+            "kind": o.experiment.kind, "scope": o.experiment.scope, "status": o.status, "error": o.error,
+            "wall_s": round(o.wall_s, 1), "command": command_for(o.experiment, quick),
+            "time_scale": o.numbers.get("time_scale", "offline (no clock: as fast as the CPU allows)"),
+            "figures": [{"name": f.name, "caption": f.caption, "png": f.png.name, "svg": f.svg.name} for f in o.figures],
+            "notes": o.notes, "numbers": o.numbers,
+        } for o in outcomes],
+        "claims": rows,
+    }
+    (out_dir / "claims.json").write_text(json.dumps(data, indent=1, default=_jsonable))
+    (out_dir / "index.html").write_text(page.render(data, out_dir))
+    return data
+
+
+def _jsonable(x):
+    if hasattr(x, "tolist"):
+        return x.tolist()
+    if isinstance(x, Path):
+        return str(x)
+    return repr(x)
