@@ -1,4 +1,4 @@
-"""The ``sdvisc`` command: ``run``, ``check``, ``clean``, ``pcap``."""
+"""The ``sdvisc`` command: ``run``, ``check``, ``clean``, ``pcap``, ``report``."""
 
 from __future__ import annotations
 
@@ -136,7 +136,21 @@ def _cmd_pcap(args) -> int:
     return pcap_main(args.rest)
 
 
+def _cmd_report(rest: list[str]) -> int:
+    """``python -m report`` in a child process: the report stands a floor above scenarios/ (it runs
+    scenarios through this CLI), so it is executed, never imported."""
+    import os
+    import subprocess
+
+    root = str(Path(__file__).resolve().parent.parent)
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (root, os.environ.get("PYTHONPATH")) if p))
+    return subprocess.call([sys.executable, "-m", "report", *rest], env=env)
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv[:1] == ["report"]:  # its options are the report's own (argparse's REMAINDER would stop at --only)
+        return _cmd_report(argv[1:])
     parser = argparse.ArgumentParser(prog="sdvisc", description="SDViSC testbed: run and check scenarios")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("run", help="run a scenario on Mininet + Open vSwitch + os-ken")
@@ -164,6 +178,9 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("pcap", help="decode a testbed capture (GTNET-SKT messages)")
     p.add_argument("rest", nargs=argparse.REMAINDER)
     p.set_defaults(func=_cmd_pcap)
+    p = sub.add_parser("report", help="reproduce the paper's Section IV: figures and claims in one page "
+                                      "([--quick] [--only F4,C2] [--out DIR]; docs/report.md)")
+    p.add_argument("rest", nargs=argparse.REMAINDER)
     args = parser.parse_args(argv)
     return args.func(args)
 
