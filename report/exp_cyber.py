@@ -1,0 +1,189 @@
+"""Cyber-in-the-loop experiments: F1 through the network and C1–C3, each a scenario of
+scenarios/paper/ on the full farm at the auto time scale, run by the normal runner (report/
+network_runs.py) and read back from summary.json and timeseries.csv."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant.cosim_service import compare_window, run_service_hd
+from plant.run_record import read_run
+from plant.turbine import REMOTE
+from report import figures, network_runs
+from report.exp_sdc import RMS_PARTLY, RMS_YES
+from report.registry import Context, Experiment, Finding, PaperClaim
+from report.verdicts import holds
+
+F1_TURBINES = ["wt1_1", "wt2_1", "wt3_1", "wt4_1"]
+
+F1NET_CLAIMS = (
+    PaperClaim("F1net.a", "The Tustin SDViSC at Ts = 0.67 ms performs as well as the hardware-dependent ViSC — "
+               "here with the SDC stepping every SDViSC over the network", "no obvious deterioration"),
+)
+C1_CLAIMS = (
+    PaperClaim("C1.a", "When SDViSCs are plugged in (cluster 1 at 1.2 s, cluster 4 at 4.8 s) the SDC immediately "
+               "starts operating them: the SDN controller builds the link in a timely manner", "immediately"),
+    PaperClaim("C1.b", "Currents and voltages of the SDViSCs stabilise within about 0.1 s after the plug", "≈ 0.1 s"),
+    PaperClaim("C1.c", "Communication is only required while a turbine operates as SDViSC", "no packets before"),
+)
+C2_CLAIMS = (
+    PaperClaim("C2.a", "Without SDN dynamic routing, communication stops at the link failure and the SDViSC becomes "
+               "abnormal", "interrupted; abnormal"),
+    PaperClaim("C2.b", "With dynamic routing the SDN controller detects the loss and reroutes; data transmission "
+               "quickly recovers", "quick recovery"),
+    PaperClaim("C2.c", "… and the SDViSC becomes normal after a short transient", "normal again"),
+)
+C3_CLAIMS = (
+    PaperClaim("C3.a", "Without the failover function the SDViSC deteriorates severely after the controller "
+               "malfunction, though the network works", "deteriorates"),
+    PaperClaim("C3.b", "With failover the backup controller immediately starts to work and the SDN controller "
+               "establishes a new link", "backup takes over"),
+    PaperClaim("C3.c", "… the SDViSC becomes normal after a short period of oscillations", "normal again"),
+)
+
+
+def _f1net(ctx: Context) -> dict[str, Finding]:
+    name = "f1_tustin_vs_hd"
+    summary, ts = network_runs.run(ctx, name)
+    out = ctx.out_dir / "runs" / name
+    cond, _lags, net = read_run(out, F1_TURBINES, step_s=summary["step_s"])
+    hd = run_service_hd(cond)
+    t_to = cond.n_steps * cond.step_s
+    cmp = compare_window(net, hd, hd, 0.5, t_to)
+    worst = max(v["rms_over_range_pct"] for v in cmp.values())
+    within = {wt: summary["turbines"][wt]["round_trip_samples"].get("within_one") for wt in F1_TURBINES}
+    ctx.numbers["network_vs_hd_pct"] = {q: v["rms_over_range_pct"] for q, v in cmp.items()}
+    fig, axes = figures.new(2)
+    for ax, q, label in ((axes[0, 0], "v_pcc", "|V_pcc| [p.u.]"), (axes[1, 0], "q", "Q of wt1_1 [p.u.]")):
+        ax.axvspan(1.0, 1.3, **figures.FAULT_SHADE)
+        ax.plot(hd["t"], hd[q][:, 0], "k", lw=1.5, label="HD ViSC (offline, same start and fault steps)")
+        ax.plot(net["t"], net[q][:, 0], "C1--", lw=1.0, label=f"SDViSC through the network (k = {summary['time']['time_scale']})")
+        ax.set_ylabel(label)
+        ax.legend(fontsize=7)
+    axes[-1, 0].set_xlabel("t [s] (SLG fault 1.0–1.3 s; four SDViSCs stepped by the SDC process over Open vSwitch)")
+    figures.save(ctx, fig, "f1net_network_vs_hd", "the SDViSC (Tustin, 0.67 ms) performs as well as the HD ViSC.")
+    verdict = "yes" if worst <= RMS_YES else "partly" if worst <= RMS_PARTLY else "no"
+    return {"F1net.a": Finding(
+        f"worst RMS deviation / HD range {worst:.2f} % over 0.5–{t_to:.1f} s", verdict,
+        "per quantity: " + ", ".join(f"{q} {v['rms_over_range_pct']:.2f} %" for q, v in cmp.items())
+        + "; MEAS→CTRL within one sample: " + ", ".join(f"{wt} {w}" for wt, w in within.items())
+        + f"; converter trips {summary.get('converter_trips') or 'none'}", {"worst_pct": worst})}
+
+
+def _grid_and_packets(ctx: Context, runs: dict, wts: list[str], name: str, caption: str, markers: dict) -> None:
+    fig, axes = figures.new(3)
+    for label, ts in runs.items():
+        axes[0, 0].plot(ts["t"], ts["v_pcc"], lw=1.0, label=label)
+        for wt in wts:
+            axes[1, 0].plot(ts["t"], ts[f"{wt}.q"], lw=1.0, label=f"{label}: {wt}")
+            t, rate = network_runs.packet_rate(ts, wt)
+            axes[2, 0].plot(t, rate, lw=0.9, label=f"{label}: {wt}")
+    for ax in axes[:, 0]:
+        for t in markers.values():
+            ax.axvline(t, color="C3", ls=":", lw=0.9)
+        ax.legend(fontsize=6.5, loc="lower right")
+    axes[0, 0].set_ylabel("|V_pcc| [p.u.]")
+    axes[1, 0].set_ylabel("Q [p.u.]")
+    axes[2, 0].set_ylabel("CTRL received [1/s]")
+    axes[2, 0].set_xlabel("t [s] (dotted: " + ", ".join(f"{k} at {v:.2f} s" for k, v in markers.items()) + ")")
+    figures.save(ctx, fig, name, caption)
+
+
+def _c1(ctx: Context) -> dict[str, Finding]:
+    name = "c1_plug_and_play"
+    summary, ts = network_runs.run(ctx, name)
+    requests = {e["wt"]: e["t"] for e in network_runs.timeline(name) if e["do"] == "visc_on"}
+    tur = summary["turbines"]
+    lag = {wt: tur[wt]["first_ctrl_rx_t"] - t for wt, t in requests.items()}
+    before = {wt: tur[wt]["first_meas_tx_t"] >= t for wt, t in requests.items()}
+    ends = {"wt1_1": requests["wt4_1"], "wt4_1": float(ts["t"][-1])}
+    settle = {wt: max(network_runs.settle_time(ts["t"], ts[f"{wt}.i"], requests[wt], ends[wt], 0.02),
+                      network_runs.settle_time(ts["t"], ts[f"{wt}.q"], requests[wt], ends[wt], 0.02))
+              for wt in requests}
+    _grid_and_packets(ctx, {"run": ts}, list(requests), "c1_plug_and_play",
+                      "SDViSCs plugged at 1.2 s and 4.8 s stabilise within about 0.1 s; packets flow only after "
+                      "the request.", {f"visc_on {wt}": t for wt, t in requests.items()})
+    worst_lag, worst_settle = max(lag.values()), max(settle.values())
+    return {
+        "C1.a": Finding(", ".join(f"{wt}: first CTRL {1000 * v:.1f} ms after the request" for wt, v in lag.items()),
+                        "yes" if worst_lag <= 0.02 else "partly" if worst_lag <= 0.2 else "no",
+                        "timely = first CTRL within 20 ms of the OWFCC's request (simulated time); ≤ 200 ms partly",
+                        {"first_ctrl_after_s": lag}),
+        "C1.b": Finding(", ".join(f"{wt}: {v:.3f} s" for wt, v in settle.items()),
+                        "yes" if worst_settle <= 0.15 else "partly" if worst_settle <= 0.5 else "no",
+                        "settled = |i| and Q within 0.02 p.u. of their final mean (last 0.3 s before the next plug or the "
+                        "end); ≤ 0.15 s yes, ≤ 0.5 s partly", {"settle_s": settle}),
+        "C1.c": Finding(", ".join(f"{wt}: first MEAS at {tur[wt]['first_meas_tx_t']:.3f} s (request {t:.1f} s)"
+                                  for wt, t in requests.items()), holds(all(before.values())),
+                        "no turbine sends a measurement before its request", {"first_meas_tx_t": before}),
+    }
+
+
+def _abnormal(summary: dict, ts: dict, wt: str, t_fault: float) -> tuple[bool, str]:
+    """Whether ``wt`` left SDViSC operation after ``t_fault``: fell back, tripped, or its mode changed."""
+    fb = (summary.get("fallbacks") or {}).get(wt, 0)
+    trips = (summary.get("converter_trips") or {}).get(wt, 0)
+    mode_after = ts[f"{wt}.mode"][ts["t"] > t_fault + 0.5]
+    left = bool(len(mode_after)) and bool(np.any(mode_after != REMOTE))
+    return bool(fb or trips or left), f"fall-backs {fb}, trips {trips}, left remote mode {left}"
+
+
+def _c2(ctx: Context) -> dict[str, Finding]:
+    s_no, ts_no = network_runs.run(ctx, "c2_link_failure_no_dr")
+    s_dr, ts_dr = network_runs.run(ctx, "c2_link_failure_dr")
+    t_fail = next(e["t"] for e in network_runs.timeline("c2_link_failure_dr") if e["do"] == "link_down")
+    last_no = s_no["turbines"]["wt1_1"]["last_ctrl_rx_t"]
+    abn_no, why_no = _abnormal(s_no, ts_no, "wt1_1", t_fail)
+    rec = [r for r in s_dr.get("recoveries") or [] if r.get("wt") == "wt1_1"]
+    abn_dr, why_dr = _abnormal(s_dr, ts_dr, "wt1_1", t_fail)
+    _grid_and_packets(ctx, {"no DR": ts_no, "DR": ts_dr}, ["wt1_1"], "c2_link_failure",
+                      "without dynamic routing the communication stops and the SDViSC becomes abnormal; with it the "
+                      "data transmission quickly recovers and the SDViSC becomes normal.", {"link s1-s3 down": t_fail})
+    ms = rec[0].get("recovery_ms") if rec else None
+    return {
+        "C2.a": Finding(f"last CTRL at {last_no:.3f} s; {why_no}", holds(last_no < t_fail + 0.1 and abn_no,
+                                                                          partly=last_no < t_fail + 0.1),
+                        "yes = control stops at the failure and wt1_1 leaves SDViSC operation", {"last_ctrl_rx_t": last_no}),
+        "C2.b": Finding(f"recovered after {ms:.1f} ms (cause {rec[0].get('cause')})" if rec else "no recovery recorded",
+                        "yes" if ms is not None and ms <= 100 else "partly" if rec else "no",
+                        "quick = ≤ 100 ms from the failure to the first CTRL on the new path (summary.json recoveries)",
+                        {"recoveries": rec}),
+        "C2.c": Finding(f"after the recovery: {why_dr}", holds(not abn_dr), "normal = stays in remote (SDViSC) mode, "
+                        "no fall-back or trip", {"abnormal": abn_dr}),
+    }
+
+
+def _c3(ctx: Context) -> dict[str, Finding]:
+    s_off, ts_off = network_runs.run(ctx, "c3_sdc_failover_off")
+    s_on, ts_on = network_runs.run(ctx, "c3_sdc_failover")
+    t_kill = next(e["t"] for e in network_runs.timeline("c3_sdc_failover") if e["do"] == "kill")
+    abn_off, why_off = _abnormal(s_off, ts_off, "wt1_1", t_kill)
+    backup = (s_on["turbines"]["wt1_1"].get("per_sdc") or {}).get("sdc2", {})
+    abn_on, why_on = _abnormal(s_on, ts_on, "wt1_1", t_kill)
+    jump = s_on["turbines"]["wt1_1"].get("takeover_jump_pu")
+    _grid_and_packets(ctx, {"no failover": ts_off, "failover": ts_on}, ["wt1_1"], "c3_sdc_failover",
+                      "without failover the SDViSC deteriorates after the controller malfunction; with it the backup "
+                      "controller takes over and the SDViSC becomes normal after a short period of oscillations.",
+                      {"sdc1 killed": t_kill})
+    return {
+        "C3.a": Finding(f"no failover: {why_off}", holds(abn_off), "yes = wt1_1 leaves SDViSC operation",
+                        {"abnormal": abn_off}),
+        "C3.b": Finding(f"backup sdc2 sent {backup.get('ctrl_tx', 0)} CTRL", holds(backup.get("ctrl_tx", 0) > 0),
+                        "summary.json turbines.wt1_1.per_sdc.sdc2", {"sdc2": backup}),
+        "C3.c": Finding(f"with failover: {why_on}; take-over jump {jump} p.u.", holds(not abn_on),
+                        "normal = stays in remote (SDViSC) mode, no fall-back or trip", {"abnormal": abn_on, "jump": jump}),
+    }
+
+
+F1NET = Experiment("F1net", "F1 through the network: SDViSC vs HD ViSC", "Fig. study1_voltage", "cyber", F1NET_CLAIMS,
+                   _f1net, network_runs.command("f1_tustin_vs_hd"),
+                   "The SDC process steps the four SDViSCs over Open vSwitch at the auto time scale; the HD ViSC it is "
+                   "compared with is run offline under the run's own conditions (plant/cosim_service.py).")
+C1 = Experiment("C1", "Plug-and-play of SDViSCs", "Fig. study2_Plug", "cyber", C1_CLAIMS, _c1,
+                network_runs.command("c1_plug_and_play"), "Full farm, auto time scale.")
+C2 = Experiment("C2", "Link failure with and without dynamic routing", "Figs. study3_NO_DR, study3_With_DR", "cyber",
+                C2_CLAIMS, _c2, network_runs.command("c2_link_failure_dr") + "; "
+                + network_runs.command("c2_link_failure_no_dr"), "Full farm model behind the paper topology.")
+C3 = Experiment("C3", "SDC failover", "Fig. study3_NO_Failover", "cyber", C3_CLAIMS, _c3,
+                network_runs.command("c3_sdc_failover") + "; " + network_runs.command("c3_sdc_failover_off"),
+                "Full farm model behind the paper topology; backup SDC with mirrored measurements.")

@@ -1,0 +1,81 @@
+"""Cyber-in-the-loop runs for the report: a scenario of scenarios/paper/ through the normal runner,
+as a subprocess (``python -m scenarios.cli run FILE --out DIR``) under the network lock, read back
+from its summary.json and timeseries.csv. Never imports scenarios/ (floors)."""
+
+from __future__ import annotations
+
+import csv
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from report.registry import Context, NotRun
+
+ROOT = Path(__file__).resolve().parents[1]
+PAPER_SCENARIOS = ROOT / "scenarios" / "paper"
+NETWORK_LOCK = "/tmp/sdvisc-net.lock"  # every run that builds a Mininet network holds it
+RUN_TIMEOUT_S = 1800
+
+
+def scenario_path(name: str) -> Path:
+    return PAPER_SCENARIOS / f"{name}.yaml"
+
+
+def command(name: str) -> str:
+    return f"./testbed run scenarios/paper/{name}.yaml"
+
+
+def run(ctx: Context, name: str) -> tuple[dict, dict[str, np.ndarray]]:
+    """Run scenarios/paper/<name>.yaml into <out>/runs/<name>; (summary, timeseries columns)."""
+    if os.geteuid() != 0:
+        raise NotRun("cyber-in-the-loop runs need root (Mininet and Open vSwitch)")
+    if shutil.which("flock") is None or shutil.which("ovs-vsctl") is None:
+        raise NotRun("cyber-in-the-loop runs need flock and Open vSwitch (./testbed sets them up)")
+    out = ctx.out_dir / "runs" / name
+    out.mkdir(parents=True, exist_ok=True)
+    cmd = ["flock", NETWORK_LOCK, sys.executable, "-m", "scenarios.cli", "run", str(scenario_path(name)),
+           "--out", str(out), "--quiet"]
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
+    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
+    (out / "report_run.log").write_text(proc.stdout + proc.stderr)
+    summary_path = out / "summary.json"
+    if proc.returncode != 0 or not summary_path.exists():
+        tail = " | ".join((proc.stderr or proc.stdout).strip().splitlines()[-3:])
+        raise RuntimeError(f"{name}: the run ended with status {proc.returncode}: {tail}")
+    summary = json.loads(summary_path.read_text())
+    k = summary.get("time", {}).get("time_scale")
+    ctx.numbers.setdefault("time_scale", {})[name] = k
+    ctx.notes.append(f"{name}: time scale {k}, wall {summary.get('time', {}).get('wall_duration_s')} s, "
+                     f"{summary.get('late_steps')} of {summary.get('steps')} steps late; output {out}")
+    return summary, read_timeseries(out / "timeseries.csv")
+
+
+def read_timeseries(path: Path) -> dict[str, np.ndarray]:
+    with open(path, newline="") as f:
+        header = next(csv.reader(f))
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {name: data[:, j] for j, name in enumerate(header)}
+
+
+def timeline(name: str) -> list[dict]:
+    return yaml.safe_load(scenario_path(name).read_text())["timeline"]
+
+
+def packet_rate(ts: dict[str, np.ndarray], wt: str) -> tuple[np.ndarray, np.ndarray]:
+    """CTRL packets per simulated second received by ``wt`` (from the cumulative count)."""
+    t, n = ts["t"], ts[f"{wt}.ctrl_rx"]
+    return t[1:], np.diff(n) / np.diff(t)
+
+
+def settle_time(t: np.ndarray, y: np.ndarray, t0: float, t1: float, band: float) -> float:
+    """Time after t0 after which y stays within ``band`` of its mean over the last 0.3 s before t1."""
+    final = float(np.mean(y[(t > t1 - 0.3) & (t <= t1)]))
+    inside = (t > t0) & (t <= t1)
+    outside = np.nonzero(inside & (np.abs(y - final) > band))[0]
+    return float(t[outside[-1]] - t0) if len(outside) else 0.0
