@@ -31,6 +31,7 @@ def sdc_config(sc: Scenario, desc: dict, out_dir: str, sdc_id: int, role: str,
                clock: dict | None = None) -> SdcConfig:
     return SdcConfig(**(clock or {}), step_s=sc.step_s, controller_vip=CONTROLLER_VIP, out_dir=out_dir, sdc_id=sdc_id, role=role,
                      method=sc.sdc.method, dtype=sc.sdc.dtype, standby=sc.sdc.standby,
+                     gather_steps=sc.sdc.gather_steps,
                      capacity=sum(h["role"] == "turbine" for h in desc["hosts"].values()))
 
 

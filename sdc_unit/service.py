@@ -50,14 +50,15 @@ import numpy as np
 from sdc_unit import admission
 from sdc_unit.admission import SeqGate
 from sdc_unit.bank import ControllerBank
+from sdc_unit.intake import MeasurementIntake
 from sdc_unit.round import pack_ctrl, step_round
 from sdvisc import wire
 from sdvisc.config import ConfigError, SdcConfig, load_config
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
-from sdvisc.vocabulary import MEAS_FIELDS, REQUEST_PARAM_WORDS
-from sdvisc.wire_batch import decode_batch, float_rows, is_type, record_dtype
+from sdvisc.vocabulary import REQUEST_PARAM_WORDS
+from sdvisc.wire_batch import record_dtype
 
 HEARTBEAT_S = 0.01
 
@@ -80,7 +81,7 @@ class Instance:
     meas_delays_ms: list = field(default_factory=list)
 
 
-class SdcService:
+class SdcService(MeasurementIntake):
     """See the module docstring."""
 
     def __init__(self, cfg: SdcConfig, sock: socket.socket | None = None) -> None:
@@ -103,6 +104,8 @@ class SdcService:
         self.rejected: Counter = Counter()  # by reason, see sdc_unit.admission (wire reasons: rx_wire)
         self.internal_logged: set[str] = set()
         self.events: list[dict] = []
+        self.gather_wall_s = self.clock.wall_s(cfg.gather_steps * cfg.step_s)
+        self.gathered = 0  # datagrams read while waiting for the rest of a sample
         self.running = True
 
     @staticmethod
@@ -196,97 +199,6 @@ class SdcService:
         except OSError:
             self.rejected["reply_tx_error"] += 1
 
-    # ------------------------------------------------------------------ measurements
-    def _drain(self, now: float) -> dict[int, list[tuple[int, tuple]]]:
-        """Read every waiting datagram and hand them to :meth:`receive`."""
-        datagrams: list[tuple[bytes, tuple]] = []
-        while True:
-            try:
-                datagrams.append(self.sock.recvfrom(2048))
-            except BlockingIOError:
-                break
-            except OSError:  # e.g. an ICMP error queued on the socket: nothing to read, go on
-                self.rejected["socket_error"] += 1
-                break
-        return self.receive(datagrams, now)
-
-    def receive(self, datagrams: list[tuple[bytes, tuple]], now: float) -> dict[int, list[tuple[int, tuple]]]:
-        """Sort received (datagram, sender) pairs: commands are carried out at once, measurements
-        admitted (:mod:`sdc_unit.admission`); returns, per turbine and in order, the usable ones as
-        (row of ``self.rx_records``, sender address). MEAS datagrams are decoded together
-        (:func:`sdvisc.wire_batch.decode_batch`). Whatever cannot be used is counted by reason in
-        ``self.rejected`` and never reaches a controller; nothing here raises."""
-        meas_data: list[bytes] = []
-        meas_addr: list[tuple] = []
-        for data, addr in datagrams:
-            if is_type(data, wire.MsgType.MEAS, self.header):
-                meas_data.append(data)
-                meas_addr.append(addr)
-                continue
-            msg = self.rx_stats.decode(data, header=self.header)
-            if msg is None:
-                continue  # counted by reason in rx_stats
-            try:
-                if msg.type == wire.MsgType.REQUEST:
-                    self._on_request(msg, addr[0], now)
-                else:
-                    self.unexpected_rx += 1
-                    self._reject("unexpected_type")
-            except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
-                self._internal_error("request", exc)
-        if not meas_data:
-            return {}
-        try:
-            return self._admit_meas(meas_data, meas_addr, now)
-        except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
-            self._internal_error("measurements", exc)
-            return {}
-
-    def _admit_meas(self, meas_data: list[bytes], meas_addr: list[tuple], now: float) -> dict:
-        batch: dict[int, list[tuple[int, tuple]]] = {}
-        rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
-        self.rx_records = rec
-        # the header's send time and the admission's words of every row, as Python values, in one call
-        words = rec[list(admission.ADMIT_WORDS if self.header else admission.ADMIT_WORDS[2:])].tolist()
-        self.rx_rows = float_rows(rec, admission.CHECKED_ROWS)  # t_sim, then the MEAS_FIELDS
-        out_of_range = admission.out_of_range_matrix(self.rx_rows).tolist()  # one vectorised check per batch
-        sources = index.tolist()
-        for j, row in enumerate(words):
-            wid, seq, t_sim = row[-3:]
-            if not admission.turbine_ok(wid):
-                self._reject("unknown_turbine")
-                continue
-            inst = self._instance(wid, create=self.role == "backup")
-            if inst is None:
-                self._reject("unserved")
-                continue
-            if out_of_range[j]:
-                self._reject("out_of_range", inst, "meas_rejected")
-                continue
-            previous = inst.gate.last_seq
-            verdict = inst.gate.admit(seq, t_sim)
-            if verdict is not None:
-                self._reject(verdict, inst, "meas_stale" if verdict == "stale" else "meas_rejected")
-                continue
-            if not inst.active:
-                if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
-                    inst.counts["meas_tracked"] += 1
-                    if self.standby == "track":
-                        self.bank.track(np.array([inst.slot]),
-                                        {k: rec[k][j:j + 1].astype(float) for k in MEAS_FIELDS})
-                else:
-                    self._reject("inactive", inst, "meas_inactive")
-                continue
-            if previous >= 0 and seq > previous + 1:
-                inst.counts["meas_lost"] += seq - previous - 1
-            if self.header and len(inst.meas_delays_ms) < 200_000:
-                inst.meas_delays_ms.append((now - (row[0] + row[1] * 1e-9)) * 1e3)
-            inst.counts["meas_rx"] += 1
-            if inst.first_meas_rx_t is None:
-                inst.first_meas_rx_t = t_sim
-            batch.setdefault(wid, []).append((j, meas_addr[sources[j]]))
-        return batch
-
     def _serve(self, batch: dict[int, list[tuple[int, tuple]]], now: float) -> None:
         """One controller step per measurement, in sequence order; turbines stepped together."""
         depth = max((len(v) for v in batch.values()), default=0)
@@ -351,7 +263,8 @@ class SdcService:
             while self.running and (until is None or time.time() < until):  # until: wall time
                 poller.poll(self.clock.wall_s(HEARTBEAT_S / 2))
                 now = self.clock.now()  # the run's one clock: stamps, delays and events in simulated seconds
-                self._serve(self._drain(now), now)
+                batch = self._drain(now, poller)
+                self._serve(batch, self.clock.now() if self.gather_wall_s > 0 else now)
         finally:
             self.running = False
             beats.join(timeout=1.0)
@@ -363,6 +276,8 @@ class SdcService:
             "role": self.role,
             "rx_wire": self.rx_stats.as_dict(),
             "heartbeats_tx": self.hb_seq,
+            "gather_window_wall_s": self.gather_wall_s,
+            "gathered": self.gathered,
             "unexpected_rx": self.unexpected_rx,
             "rejected": {**{k: v for k, v in self.rx_stats.as_dict().items() if k not in ("ok", "rejected") and v},
                          **self.rejected},

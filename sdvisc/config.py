@@ -58,6 +58,10 @@ class ServiceBase(ProcessBase):
     realtime_priority: bool = Field(True, description="run at SCHED_FIFO where allowed")
 
 
+GATHER_HELP = ("after a wake-up, wait up to this many sampling periods (simulated) for the other served "
+               "turbines' MEAS, so one round answers them all; 0: every wake-up is a round")
+
+
 class SdcConfig(ServiceBase):
     """``python -m sdc_unit.service``."""
 
@@ -69,6 +73,7 @@ class SdcConfig(ServiceBase):
     capacity: int = Field(64, ge=1, le=4096, description="turbines one SDC can serve")
     method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
     dtype: Literal["float64", "float32"] = "float64"
+    gather_steps: float = Field(0.25, ge=0, le=0.9, description=GATHER_HELP)
 
 
 class TurbineEndpoint(_Config):

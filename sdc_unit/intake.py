@@ -1,0 +1,132 @@
+"""How the SDC service takes datagrams in: read everything waiting, gather one sample's measurements
+(:mod:`sdc_unit.gather`), carry out commands, admit measurements (:mod:`sdc_unit.admission`) and
+count by reason whatever is dropped. A mixin of :class:`sdc_unit.service.SdcService` (it uses the
+service's socket, instances, counters and clock); nothing here raises on a bad datagram."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from sdc_unit import admission
+from sdc_unit.gather import gather
+from sdvisc import wire
+from sdvisc.vocabulary import MEAS_FIELDS
+from sdvisc.wire_batch import decode_batch, float_rows, is_type
+
+
+class MeasurementIntake:
+    """Reading, gathering and admission; see the module docstring."""
+
+    def _read_waiting(self) -> list[tuple[bytes, tuple]]:
+        """Every datagram waiting on the socket."""
+        datagrams: list[tuple[bytes, tuple]] = []
+        while True:
+            try:
+                datagrams.append(self.sock.recvfrom(2048))
+            except BlockingIOError:
+                break
+            except OSError:  # e.g. an ICMP error queued on the socket: nothing to read, go on
+                self.rejected["socket_error"] += 1
+                break
+        return datagrams
+
+    def _drain(self, now: float, poller=None) -> dict[int, list[tuple[int, tuple]]]:
+        """Read every waiting datagram, wait (up to the gather window) for the rest of the sample's
+        measurements (:func:`sdc_unit.gather.gather`), and hand them to :meth:`receive`."""
+        first = self._read_waiting()
+        if poller is None or self.gather_wall_s <= 0 or not first:
+            return self.receive(first, now)
+
+        def read_more(timeout_s: float) -> list[tuple[bytes, tuple]]:
+            return self._read_waiting() if poller.poll(timeout_s) else []
+
+        expected = sum(1 for i in self.instances.values() if i.active or self.role == "backup")
+        datagrams, read_at = gather(first, now, read_more, self._is_meas, expected, self.gather_wall_s,
+                                    now=self.clock.now)
+        self.gathered += len(datagrams) - len(first)
+        return self.receive(datagrams, now, read_at=read_at)
+
+    def _is_meas(self, data: bytes) -> bool:
+        return is_type(data, wire.MsgType.MEAS, self.header)
+
+    def receive(self, datagrams: list[tuple[bytes, tuple]], now: float,
+                read_at: list[float] | None = None) -> dict[int, list[tuple[int, tuple]]]:
+        """Sort received (datagram, sender) pairs: commands are carried out at once, measurements
+        admitted (:mod:`sdc_unit.admission`); returns, per turbine and in order, the usable ones as
+        (row of ``self.rx_records``, sender address). MEAS datagrams are decoded together
+        (:func:`sdvisc.wire_batch.decode_batch`). Whatever cannot be used is counted by reason in
+        ``self.rejected`` and never reaches a controller; nothing here raises. ``read_at``: when each
+        datagram was read (its MEAS one-way delay ends there), else ``now``."""
+        meas_data: list[bytes] = []
+        meas_addr: list[tuple] = []
+        meas_read: list[float] = []
+        for k, (data, addr) in enumerate(datagrams):
+            if is_type(data, wire.MsgType.MEAS, self.header):
+                meas_data.append(data)
+                meas_addr.append(addr)
+                meas_read.append(read_at[k] if read_at is not None else now)
+                continue
+            msg = self.rx_stats.decode(data, header=self.header)
+            if msg is None:
+                continue  # counted by reason in rx_stats
+            try:
+                if msg.type == wire.MsgType.REQUEST:
+                    self._on_request(msg, addr[0], now)
+                else:
+                    self.unexpected_rx += 1
+                    self._reject("unexpected_type")
+            except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
+                self._internal_error("request", exc)
+        if not meas_data:
+            return {}
+        try:
+            return self._admit_meas(meas_data, meas_addr, meas_read, now)
+        except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
+            self._internal_error("measurements", exc)
+            return {}
+
+    def _admit_meas(self, meas_data: list[bytes], meas_addr: list[tuple], meas_read: list[float],
+                    now: float) -> dict:
+        batch: dict[int, list[tuple[int, tuple]]] = {}
+        rec, index = decode_batch(meas_data, wire.MsgType.MEAS, header=self.header, stats=self.rx_stats)
+        self.rx_records = rec
+        # the header's send time and the admission's words of every row, as Python values, in one call
+        words = rec[list(admission.ADMIT_WORDS if self.header else admission.ADMIT_WORDS[2:])].tolist()
+        self.rx_rows = float_rows(rec, admission.CHECKED_ROWS)  # t_sim, then the MEAS_FIELDS
+        out_of_range = admission.out_of_range_matrix(self.rx_rows).tolist()  # one vectorised check per batch
+        sources = index.tolist()
+        for j, row in enumerate(words):
+            wid, seq, t_sim = row[-3:]
+            if not admission.turbine_ok(wid):
+                self._reject("unknown_turbine")
+                continue
+            inst = self._instance(wid, create=self.role == "backup")
+            if inst is None:
+                self._reject("unserved")
+                continue
+            if out_of_range[j]:
+                self._reject("out_of_range", inst, "meas_rejected")
+                continue
+            previous = inst.gate.last_seq
+            verdict = inst.gate.admit(seq, t_sim)
+            if verdict is not None:
+                self._reject(verdict, inst, "meas_stale" if verdict == "stale" else "meas_rejected")
+                continue
+            if not inst.active:
+                if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
+                    inst.counts["meas_tracked"] += 1
+                    if self.standby == "track":
+                        self.bank.track(np.array([inst.slot]),
+                                        {k: rec[k][j:j + 1].astype(float) for k in MEAS_FIELDS})
+                else:
+                    self._reject("inactive", inst, "meas_inactive")
+                continue
+            if previous >= 0 and seq > previous + 1:
+                inst.counts["meas_lost"] += seq - previous - 1
+            if self.header and len(inst.meas_delays_ms) < 200_000:
+                inst.meas_delays_ms.append((meas_read[sources[j]] - (row[0] + row[1] * 1e-9)) * 1e3)
+            inst.counts["meas_rx"] += 1
+            if inst.first_meas_rx_t is None:
+                inst.first_meas_rx_t = t_sim
+            batch.setdefault(wid, []).append((j, meas_addr[sources[j]]))
+        return batch
