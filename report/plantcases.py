@@ -15,7 +15,7 @@ from sdc_unit.params import ViscParams
 
 FIRST_VISC = 20  # "the leftmost 4 wind turbines in Cluster 3"
 FAULT_SLG = "single-phase-to-ground fault at the PCC"
-V_BAND = 0.9  # p.u.: a weak-grid case "holds" when V_pcc settles at or above this
+V_BAND = 0.9  # p.u.: a weak-grid case "holds" (a usable operating point) when V_pcc settles at or above this
 PTP_SETTLED = 0.02  # p.u.: peak-to-peak of V_pcc over the last second below this = settled
 
 
@@ -69,18 +69,23 @@ class Settling:
     v_end: float  # V_pcc at the end [p.u.]
     ptp_last_s: float  # peak-to-peak of V_pcc over the last second [p.u.]
     v_min: float  # lowest V_pcc after the event [p.u.]
+    finite: bool = True  # False: the simulation diverged (non-finite values)
 
     @property
     def settled(self) -> bool:
-        return self.ptp_last_s < PTP_SETTLED
+        """No sustained oscillation: what "stable" means in the weak-grid searches."""
+        return self.finite and self.ptp_last_s < PTP_SETTLED
 
     @property
     def holds(self) -> bool:
-        """Settled within the voltage band: what "stable" means in the weak-grid searches."""
+        """Settled within the voltage band (a usable operating point)."""
         return self.settled and self.v_end >= V_BAND
 
     def describe(self) -> str:
-        state = "holds" if self.holds else "settles low (collapsed)" if self.settled else "oscillates"
+        if not self.finite:
+            return "diverged (non-finite V_pcc)"
+        state = ("settles in the band" if self.holds else f"settles below {V_BAND} p.u." if self.settled
+                 else "oscillates")
         return f"{state}: V_pcc end {self.v_end:.3f}, p-p last 1 s {self.ptp_last_s:.3f}, min {self.v_min:.3f}"
 
 
@@ -88,7 +93,8 @@ def settling(r: dict, t_event: float) -> Settling:
     t_end = r["t"][-1]
     last = window(r, t_end - 1.0, t_end + 1.0)
     after = r["t"] > t_event
-    return Settling(float(r["v_pcc"][-1]), float(np.ptp(r["v_pcc"][last])), float(r["v_pcc"][after].min()))
+    v = r["v_pcc"]
+    return Settling(float(v[-1]), float(np.ptp(v[last])), float(v[after].min()), bool(np.all(np.isfinite(v))))
 
 
 def t90(t: np.ndarray, y: np.ndarray, t0: float) -> float:

@@ -73,7 +73,8 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: list[str],
-               progress: Callable[[str], None] = print) -> dict:
+               progress: Callable[[str], None] | None = None) -> dict:
+    progress = progress or (lambda line: print(line, flush=True))  # a line as it happens, also into a file
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.time()
     machine_before = machine.describe()
