@@ -11,14 +11,24 @@ from plant.run_record import read_run
 from plant.turbine import REMOTE
 from report import figures, network_runs
 from report.exp_sdc import RMS_PARTLY, RMS_YES
+from report.plantcases import settling, visc_plant
 from report.registry import Context, Experiment, Finding, PaperClaim
-from report.verdicts import holds
+from report.verdicts import close_to, holds
 
 F1_TURBINES = ["wt1_1", "wt2_1", "wt3_1", "wt4_1"]
 
 F1NET_CLAIMS = (
     PaperClaim("F1net.a", "The Tustin SDViSC at Ts = 0.67 ms performs as well as the hardware-dependent ViSC — "
                "here with the SDC stepping every SDViSC over the network", "no obvious deterioration"),
+)
+F6NET_CLAIMS = (
+    PaperClaim("F6net.a", "The SDViSC's fault contribution (SLG fault 1.0–1.2 s) is limited by its overcurrent "
+               "capability — with the SDC over the network", "1.5 p.u."),
+    PaperClaim("F6net.b", "… and it injects reactive power during the fault", "Q > 0"),
+)
+F9NET_CLAIMS = (
+    PaperClaim("F9net.a", "With 4 SDViSCs, SCR 7.14 → 1.51 at 1 s, the oscillations are damped and the system reaches "
+               "a stable operating condition — with the SDC over the network", "4 SDViSCs: stable"),
 )
 C1_CLAIMS = (
     PaperClaim("C1.a", "When SDViSCs are plugged in (cluster 1 at 1.2 s, cluster 4 at 4.8 s) the SDC immediately "
@@ -68,6 +78,39 @@ def _f1net(ctx: Context) -> dict[str, Finding]:
         "per quantity: " + ", ".join(f"{q} {v['rms_over_range_pct']:.2f} %" for q, v in cmp.items())
         + "; MEAS→CTRL within one sample: " + ", ".join(f"{wt} {w}" for wt, w in within.items())
         + f"; converter trips {summary.get('converter_trips') or 'none'}", {"worst_pct": worst})}
+
+
+def _f6net(ctx: Context) -> dict[str, Finding]:
+    name = "f6_slg_fault_current"
+    summary, ts = network_runs.run(ctx, name)
+    wts = [e["wt"] for e in network_runs.timeline(name) if e["do"] == "visc_on"]
+    during = (ts["t"] > 1.05) & (ts["t"] < 1.19)
+    i_max = max(float(ts[f"{wt}.i"].max()) for wt in wts)
+    q = float(np.mean([ts[f"{wt}.q"][during].mean() for wt in wts]))
+    _grid_and_packets(ctx, {"run": ts}, wts[:1], "f6net_fault_through_network", "the SDViSC's contribution is "
+                      "limited by its overcurrent capability (1.5 p.u.).", {"fault": 1.0, "cleared": 1.2})
+    return {
+        "F6net.a": Finding(f"largest |i| of {', '.join(wts)}: {i_max:.3f} p.u.", close_to(i_max, 1.5, 0.02, 0.1),
+                           "within 2 % of 1.5 = yes, 10 % partly (recorded every "
+                           f"{summary.get('step_s', 0) * 1000:.2f} ms × record_every; converter trips: "
+                           f"{summary.get('converter_trips') or 'none'})", {"i_max": i_max}),
+        "F6net.b": Finding(f"mean Q during the fault {q:.2f} p.u.", holds(q > 0.1), "mean over 1.05–1.19 s of the four",
+                           {"q_fault": q}),
+    }
+
+
+def _f9net(ctx: Context) -> dict[str, Finding]:
+    name = "f9_scr151_4visc"
+    summary, ts = network_runs.run(ctx, name)
+    net = settling(ts, 1.0)
+    offline = settling(visc_plant(4).run_offline(float(ts["t"][-1]), events=[(1.0, lambda q: q.set_scr(1.51))],
+                                                 record_every=10), 1.0)
+    _grid_and_packets(ctx, {"run": ts}, ["wt3_1"], "f9net_scr151_through_network", "with 4 SDViSCs the oscillations "
+                      "are damped and the system reaches a stable operating condition.", {"SCR 1.51": 1.0})
+    return {"F9net.a": Finding(
+        f"network: {net.describe()}", holds(net.holds, partly=net.settled),
+        f"yes = settles at ≥ 0.9 p.u., partly = settles below; offline (hd_visc, same SCR step): {offline.describe()}",
+        {"network": vars(net), "offline": vars(offline)})}
 
 
 def _grid_and_packets(ctx: Context, runs: dict, wts: list[str], name: str, caption: str, markers: dict) -> None:
@@ -179,6 +222,12 @@ F1NET = Experiment("F1net", "F1 through the network: SDViSC vs HD ViSC", "Fig. s
                    _f1net, network_runs.command("f1_tustin_vs_hd"),
                    "The SDC process steps the four SDViSCs over Open vSwitch at the auto time scale; the HD ViSC it is "
                    "compared with is run offline under the run's own conditions (plant/cosim_service.py).")
+F6NET = Experiment("F6net", "F6 through the network: SDViSC fault current", "Fig. Compare_ShortC (b)", "cyber",
+                   F6NET_CLAIMS, _f6net, network_runs.command("f6_slg_fault_current"),
+                   "Four SDViSCs of cluster 3 stepped by the SDC over the network; SC out of service.")
+F9NET = Experiment("F9net", "F9 through the network: 4 SDViSCs at SCR 1.51", "Fig. study2_Weak_noVSC (b)", "cyber",
+                   F9NET_CLAIMS, _f9net, network_runs.command("f9_scr151_4visc"),
+                   "The paper's boundary case confirmed cyber-in-the-loop, beside the offline run of the same case.")
 C1 = Experiment("C1", "Plug-and-play of SDViSCs", "Fig. study2_Plug", "cyber", C1_CLAIMS, _c1,
                 network_runs.command("c1_plug_and_play"), "Full farm, auto time scale.")
 C2 = Experiment("C2", "Link failure with and without dynamic routing", "Figs. study3_NO_DR, study3_With_DR", "cyber",
