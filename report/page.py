@@ -21,8 +21,8 @@ img{max-width:100%;border:1px solid #ddd}.small{font-size:0.85em;color:#555}
 """
 
 
-def _verdict_cell(verdict: str) -> str:
-    return f'<td class="v-{escape(verdict.replace(" ", "-"))}"><b>{escape(verdict)}</b></td>'
+def _verdict_cell(verdict: str, shown: str | None = None) -> str:
+    return f'<td class="v-{escape(verdict.replace(" ", "-"))}"><b>{escape(shown or verdict)}</b></td>'
 
 
 def _machine(data: dict) -> str:
@@ -47,7 +47,7 @@ def _experiments_table(exps: list[dict]) -> str:
     head = "<tr><th>experiment</th><th>paper figure</th><th>how</th><th>status</th><th>wall time</th><th>time scale</th></tr>"
     body = "".join(
         f"<tr><td><a href='#{escape(e['id'])}'>{escape(e['id'])}</a> {escape(e['title'])}</td>"
-        f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']))}"
+        f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']), e['status'])}"
         f"<td>{e['wall_s']} s</td><td>{escape(str(e['time_scale']))}</td></tr>" for e in exps)
     return f"<table>{head}{body}</table>"
 
