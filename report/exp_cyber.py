@@ -147,6 +147,8 @@ def _c1(ctx: Context) -> dict[str, Finding]:
                       "SDViSCs plugged at 1.2 s and 4.8 s stabilise within about 0.1 s; packets flow only after "
                       "the request.", {f"visc_on {wt}": t for wt, t in requests.items()})
     worst_lag, worst_settle = max(lag.values()), max(settle.values())
+    p_move = {wt: (float(ts[f"{wt}.p"][ts["t"] <= t][-1]), float(ts[f"{wt}.p"][ts["t"] <= ends[wt]][-1]))
+              for wt, t in requests.items()}
     return {
         "C1.a": Finding(", ".join(f"{wt}: first CTRL {1000 * v:.1f} ms after the request" for wt, v in lag.items()),
                         "yes" if worst_lag <= 0.02 else "partly" if worst_lag <= 0.2 else "no",
@@ -155,7 +157,10 @@ def _c1(ctx: Context) -> dict[str, Finding]:
         "C1.b": Finding(", ".join(f"{wt}: {v:.3f} s" for wt, v in settle.items()),
                         "yes" if worst_settle <= 0.15 else "partly" if worst_settle <= 0.5 else "no",
                         "settled = |i| and Q within 0.02 p.u. of their final mean (last 0.3 s before the next plug or the "
-                        "end); ≤ 0.15 s yes, ≤ 0.5 s partly", {"settle_s": settle}),
+                        "end); ≤ 0.15 s yes, ≤ 0.5 s partly; P at the request → at the end: "
+                        + ", ".join(f"{wt} {a:.2f} → {b:.2f} p.u." for wt, (a, b) in p_move.items())
+                        + " (the SDViSC law's T_m = 0 takes a producing turbine to P = 0 through its swing equation)",
+                        {"settle_s": settle, "p_request_end": p_move}),
         "C1.c": Finding(", ".join(f"{wt}: first MEAS at {tur[wt]['first_meas_tx_t']:.3f} s (request {t:.1f} s)"
                                   for wt, t in requests.items()), holds(all(before.values())),
                         "no turbine sends a measurement before its request", {"first_meas_tx_t": before}),
