@@ -117,7 +117,9 @@ def build_model(cfg: PlantConfig, names: list[str]):
                 raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
             indices.append(index)
         warm_up(params, step_s)  # kernels loaded before t = 0, not at the first CTRL packet
-        return Plant(params, n_turbines=n_farm, step_s=step_s), indices
+        plant = Plant(params, n_turbines=n_farm, step_s=step_s)
+        plant.net.prepare(fault_on=True)  # the fault step then costs what any step costs (no LU in it)
+        return plant, indices
     raise ValueError(f"unknown plant model {kind!r}")
 
 

@@ -62,7 +62,7 @@ class SdcSpec(Strict):
     method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
     dtype: Literal["float64", "float32"] = "float64"
     backup: bool = Field(True, description="start the backup SDC on sdc2")
-    gather_steps: float = Field(0.25, ge=0, le=0.9, description=GATHER_HELP)
+    gather_steps: float = Field(0.5, ge=0, le=0.9, description=GATHER_HELP)
     standby: Literal["latest", "track"] = Field(
         "latest", description="backup warm state: track = step on every mirrored sample; latest = initialise at take-over")
 

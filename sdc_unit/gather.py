@@ -25,9 +25,9 @@ Datagram = tuple[bytes, tuple]
 def gather(first: list[Datagram], first_read_at: float, read_more: Callable[[float], list[Datagram]],
            is_meas: Callable[[bytes], bool], expected: int, window_s: float,
            monotonic: Callable[[], float] = time.monotonic,
-           now: Callable[[], float] | None = None) -> tuple[list[Datagram], list[float]]:
-    """Datagrams of one round and, for each, when it was read (``now()``'s reading; ``first`` was
-    read at ``first_read_at``).
+           now: Callable[[], float] | None = None) -> tuple[list[Datagram], list[float], bool]:
+    """Datagrams of one round, for each when it was read (``now()``'s reading; ``first`` was read at
+    ``first_read_at``), and whether the sample was complete (False: the window ran out first).
 
     ``read_more(timeout_s)`` waits up to ``timeout_s`` wall seconds for the socket to be readable
     and returns what is waiting (possibly nothing). ``expected``: measurements that make a complete
@@ -36,10 +36,10 @@ def gather(first: list[Datagram], first_read_at: float, read_more: Callable[[flo
     datagrams = list(first)
     read_at = [first_read_at] * len(datagrams)
     if window_s <= 0 or not datagrams:
-        return datagrams, read_at
+        return datagrams, read_at, True
     count = sum(1 for data, _ in datagrams if is_meas(data))
     if count == 0:
-        return datagrams, read_at  # commands only: carried out at once
+        return datagrams, read_at, True  # commands only: carried out at once
     deadline = monotonic() + window_s
     clock = now or monotonic
     while count < expected:
@@ -52,4 +52,4 @@ def gather(first: list[Datagram], first_read_at: float, read_more: Callable[[flo
             datagrams += more
             read_at += [t] * len(more)
             count += sum(1 for data, _ in more if is_meas(data))
-    return datagrams, read_at
+    return datagrams, read_at, count >= expected

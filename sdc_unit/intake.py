@@ -13,6 +13,10 @@ from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS
 from sdvisc.wire_batch import decode_batch, float_rows, is_type
 
+STREAMING_STEPS = 4
+"""A turbine whose last measurement (admitted, or tracked by a backup) was read within this many
+sampling periods counts as streaming: its MEAS is expected in every sample."""
+
 
 class MeasurementIntake:
     """Reading, gathering and admission; see the module docstring."""
@@ -40,10 +44,14 @@ class MeasurementIntake:
         def read_more(timeout_s: float) -> list[tuple[bytes, tuple]]:
             return self._read_waiting() if poller.poll(timeout_s) else []
 
-        expected = sum(1 for i in self.instances.values() if i.active or self.role == "backup")
-        datagrams, read_at = gather(first, now, read_more, self._is_meas, expected, self.gather_wall_s,
+        # a complete sample: one MEAS from each turbine whose stream is flowing (one that has gone
+        # quiet, e.g. behind a failed link, must not hold the others' answers back every sample)
+        recent = now - STREAMING_STEPS * self.step_s
+        expected = sum(1 for i in self.instances.values() if i.last_meas_at >= recent)
+        datagrams, read_at, complete = gather(first, now, read_more, self._is_meas, expected, self.gather_wall_s,
                                     now=self.clock.now)
         self.gathered += len(datagrams) - len(first)
+        self.gather_incomplete += not complete
         return self.receive(datagrams, now, read_at=read_at)
 
     def _is_meas(self, data: bytes) -> bool:
@@ -115,6 +123,7 @@ class MeasurementIntake:
             if not inst.active:
                 if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
                     inst.counts["meas_tracked"] += 1
+                    inst.last_meas_at = meas_read[sources[j]]
                     if self.standby == "track":
                         self.bank.track(np.array([inst.slot]),
                                         {k: rec[k][j:j + 1].astype(float) for k in MEAS_FIELDS})
@@ -126,6 +135,7 @@ class MeasurementIntake:
             if self.header and len(inst.meas_delays_ms) < 200_000:
                 inst.meas_delays_ms.append((meas_read[sources[j]] - (row[0] + row[1] * 1e-9)) * 1e3)
             inst.counts["meas_rx"] += 1
+            inst.last_meas_at = meas_read[sources[j]]
             if inst.first_meas_rx_t is None:
                 inst.first_meas_rx_t = t_sim
             batch.setdefault(wid, []).append((j, meas_addr[sources[j]]))

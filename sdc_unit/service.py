@@ -78,6 +78,7 @@ class Instance:
                                                   "meas_inactive": 0, "meas_tracked": 0,
                                                   "ctrl_invalid": 0, "meas_rejected": 0})
     first_meas_rx_t: float | None = None
+    last_meas_at: float = float("-inf")  # run clock when its last usable MEAS was read (sdc_unit.gather)
     meas_delays_ms: list = field(default_factory=list)
 
 
@@ -106,6 +107,7 @@ class SdcService(MeasurementIntake):
         self.events: list[dict] = []
         self.gather_wall_s = self.clock.wall_s(cfg.gather_steps * cfg.step_s)
         self.gathered = 0  # datagrams read while waiting for the rest of a sample
+        self.gather_incomplete = 0  # waits the window ended before every streaming turbine's MEAS came
         self.running = True
 
     @staticmethod
@@ -278,6 +280,7 @@ class SdcService(MeasurementIntake):
             "heartbeats_tx": self.hb_seq,
             "gather_window_wall_s": self.gather_wall_s,
             "gathered": self.gathered,
+            "gather_incomplete": self.gather_incomplete,
             "unexpected_rx": self.unexpected_rx,
             "rejected": {**{k: v for k, v in self.rx_stats.as_dict().items() if k not in ("ok", "rejected") and v},
                          **self.rejected},

@@ -73,7 +73,7 @@ class SdcConfig(ServiceBase):
     capacity: int = Field(64, ge=1, le=4096, description="turbines one SDC can serve")
     method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
     dtype: Literal["float64", "float32"] = "float64"
-    gather_steps: float = Field(0.25, ge=0, le=0.9, description=GATHER_HELP)
+    gather_steps: float = Field(0.5, ge=0, le=0.9, description=GATHER_HELP)
 
 
 class TurbineEndpoint(_Config):
