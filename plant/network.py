@@ -19,9 +19,11 @@ source, nothing in Y); the grid is E_g behind Z_g (Y_g on the pcc diagonal, E_g 
 the condenser is E'' behind (ra + j x'') (admittance on the sc diagonal, E'' Y'' injected).
 
 Y is factorised with a dense LU (``scipy.linalg.lu_factor``) and the explicit inverse is formed
-from the factors once, so every solve is one matrix-vector product. Y is rebuilt and refactored
-only by ``set_scr``, ``set_plugged``, ``set_fault`` and ``set_sc_connected`` (counted in
-``n_factorizations``).
+from the factors once, so every solve is one matrix-vector product. Y changes only by
+``set_scr``, ``set_plugged``, ``set_fault`` and ``set_sc_connected`` (counted in
+``n_factorizations``); the factorisation of every state entered is kept (:data:`FACTOR_CACHE_SIZE`),
+so a state entered again — a fault cleared, an SCR restored — or prepared ahead with
+:meth:`Network.prepare` costs a lookup, not an LU in the middle of a paced step.
 
 Single-phase-to-ground fault (sequence-network method): the positive-sequence network sees the
 fault as a shunt impedance Z_f1 = Z2 + Z0 + 3 Z_f at the fault node, where Z2 and Z0 are the
