@@ -118,7 +118,10 @@ def build_model(cfg: PlantConfig, names: list[str]):
             indices.append(index)
         warm_up(params, step_s)  # kernels loaded before t = 0, not at the first CTRL packet
         plant = Plant(params, n_turbines=n_farm, step_s=step_s)
-        plant.net.prepare(fault_on=True)  # the fault step then costs what any step costs (no LU in it)
+        for scr in [None, *cfg.prepare_scr]:  # the states the run enters: no LU in a paced step
+            plant.net.prepare(fault_on=True, **({} if scr is None else {"scr": scr}))
+            if scr is not None:
+                plant.net.prepare(scr=scr)
         return plant, indices
     raise ValueError(f"unknown plant model {kind!r}")
 

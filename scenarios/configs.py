@@ -51,4 +51,5 @@ def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | N
                        turbines=turbines, model=p.model, record=p.record or sc.turbines_named(),
                        record_every=p.record_every, ak_period_s=p.ak_period_s, ak_window_s=p.ak_window_s,
                        remote_loss_fallback_s=p.remote_loss_fallback_s, remote_apply=p.remote_apply,
-                       report_loss_after_s=sc.sdn.dr_hold_s, start_margin_s=START_MARGIN_S)
+                       report_loss_after_s=sc.sdn.dr_hold_s, start_margin_s=START_MARGIN_S,
+                       prepare_scr=sorted({e.value for e in sc.timeline if e.do == "scr"}))

@@ -102,6 +102,8 @@ class PlantConfig(ServiceBase):
     stdin_commands: bool = Field(True, description="read timeline commands (JSON lines) on stdin")
     t0_wall: float | None = Field(None, description="the run clock's reading at t = 0 (None: set at start-up)")
     start_margin_s: float | None = Field(None, ge=0, description="t = 0 this long after the model is ready")
+    prepare_scr: list[float] = Field(default_factory=list, description=(
+        "SCR values the timeline will set: the full model factorises those network states before t = 0"))
 
 
 class OwfccConfig(ProcessBase):

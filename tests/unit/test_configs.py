@@ -25,7 +25,7 @@ from topologies import topos
 from topologies.base import describe
 
 ROOT = Path(__file__).resolve().parents[2]
-SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml"))
+SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml")) + sorted((ROOT / "scenarios" / "paper").glob("*.yaml"))
 
 
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
@@ -43,6 +43,11 @@ def test_every_shipped_scenario_gives_valid_process_configs(path, tmp_path):
     plant = made[2][1]
     assert plant.step_s == sc.step_s and plant.report_loss_after_s == sc.sdn.dr_hold_s
     assert made[0][1].turbine_fallback_s == sc.plant.remote_loss_fallback_s
+    assert sc.sdc.gather_steps == made[3][1].gather_steps
+    if path.stem == "f7_weak_grid_visc":  # SCR 7.14 -> 1.58 at 1 s: factorised before t = 0
+        assert plant.prepare_scr == [1.58]
+    elif not any(e.do == "scr" for e in sc.timeline):
+        assert plant.prepare_scr == []
 
 
 def test_a_bad_config_file_names_every_problem(tmp_path):

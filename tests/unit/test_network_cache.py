@@ -62,3 +62,18 @@ def test_every_state_variable_is_part_of_the_key():
     net.set_plugged([3], False)
     net.ensure()
     assert not np.allclose(net.zred, base)
+
+
+def test_the_plant_service_prepares_the_fault_and_the_timelines_scr_values(tmp_path):
+    from plant.service import build_model
+    from sdvisc.config import PlantConfig
+
+    cfg = PlantConfig(step_s=0.00067, out_dir=str(tmp_path), duration_s=1.0, model="full", prepare_scr=[1.51],
+                      turbines=[{"name": "wt1_1", "wid": 101, "ip": "10.0.1.1"}])
+    plant, _ = build_model(cfg, ["wt1_1"])
+    net = plant.net
+    hits = net.cache_hits
+    for change in (lambda: net.set_fault(True), lambda: net.set_scr(1.51), lambda: net.set_fault(False)):
+        change()
+        net.ensure()
+    assert net.cache_hits == hits + 3  # fault at the base SCR, SCR 1.51 under the fault, then cleared
