@@ -85,6 +85,8 @@ def render(data: dict, out_dir: Path) -> str:
         "<title>SDViSC testbed: the paper's Section IV reproduced</title>",
         f"<style>{STYLE}</style></head><body>",
         "<h1>SDViSC testbed: the paper's Section IV, claim by claim</h1>",
+        (f"<p><b>Partial: still to run: {escape(', '.join(data['pending']))}</b> (the page is rewritten after "
+         "each experiment).</p>" if data.get("pending") else ""),
         f"<p>Command: <code>{escape(data['command'])}</code>. Claims: {escape(tally)}. The paper's values are typed "
         "from the paper; every value in the column <i>this testbed</i> and every verdict is computed by the "
         "experiment (tolerances in report/verdicts.py: a number within 10 % of the paper's is reproduced, within "

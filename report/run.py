@@ -74,11 +74,14 @@ def summarise(rows: list[dict]) -> dict:
 
 def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: list[str],
                progress: Callable[[str], None] | None = None) -> dict:
+    """Run ``experiments`` in order; claims.json and index.html are rewritten after each one (a long
+    run stopped half-way leaves a page of what finished, marked partial)."""
     progress = progress or (lambda line: print(line, flush=True))  # a line as it happens, also into a file
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.time()
     machine_before = machine.describe()
-    outcomes = []
+    outcomes: list[Outcome] = []
+    data: dict = {}
     for i, exp in enumerate(experiments, 1):
         progress(f"report: [{i}/{len(experiments)}] {exp.id} {exp.title} ({exp.kind}) …")
         outcome = run_one(exp, out_dir, quick)
@@ -88,11 +91,21 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
         progress(f"report: [{i}/{len(experiments)}] {exp.id} {outcome.status} in {outcome.wall_s:.1f} s"
                  f" ({tally or 'no claims'}){detail}")
         outcomes.append(outcome)
+        data = _data(outcomes, experiments, quick, argv, started, machine_before)
+        (out_dir / "claims.json").write_text(json.dumps(data, indent=1, default=_jsonable))
+        (out_dir / "index.html").write_text(page.render(data, out_dir))
+    return data
+
+
+def _data(outcomes: list[Outcome], experiments: list[Experiment], quick: bool, argv: list[str], started: float,
+          machine_before: dict) -> dict:
     rows = [row for o in outcomes for row in claim_rows(o, quick)]
-    data = {
+    return {
         "report_version": 1,
         "command": "python -m report " + " ".join(argv),
         "quick": quick,
+        "complete": len(outcomes) == len(experiments),
+        "pending": [e.id for e in experiments[len(outcomes):]],
         "wall_s": round(time.time() - started, 1),
         "machine": {"before": machine_before, "after": machine.describe()},
         "summary": summarise(rows),
@@ -106,9 +119,6 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
         } for o in outcomes],
         "claims": rows,
     }
-    (out_dir / "claims.json").write_text(json.dumps(data, indent=1, default=_jsonable))
-    (out_dir / "index.html").write_text(page.render(data, out_dir))
-    return data
 
 
 def _jsonable(x):

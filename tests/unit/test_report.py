@@ -126,6 +126,22 @@ def _not_here(ctx: Context):
     raise NotRun("needs root")
 
 
+def test_the_page_is_written_after_each_experiment(tmp_path):
+    seen = []
+
+    def look(ctx: Context):
+        seen.append((json.loads((tmp_path / "claims.json").read_text()), (tmp_path / "index.html").read_text()))
+        return {"LOOK.a": Finding("1", "yes")}
+
+    run_report([_exp("OK", _ok, (PaperClaim("OK.a", "a", "1"),)), _exp("LOOK", look)], tmp_path, quick=False, argv=[],
+               progress=lambda line: None)
+    partial, partial_html = seen[0]
+    assert not partial["complete"] and partial["pending"] == ["LOOK"] and [e["id"] for e in partial["experiments"]] == ["OK"]
+    assert "Partial: still to run: LOOK" in partial_html
+    final = json.loads((tmp_path / "claims.json").read_text())
+    assert final["complete"] and [r["verdict"] for r in final["claims"]] == ["partly", "yes"]
+
+
 def test_a_failed_experiment_is_reported_and_the_others_still_run(tmp_path):
     exps = [_exp("BOOM", _boom), _exp("OK", _ok, (PaperClaim("OK.a", "a", "1.02"), PaperClaim("OK.b", "b", "2"))),
             _exp("NR", _not_here)]
@@ -146,4 +162,5 @@ def test_a_failed_experiment_is_reported_and_the_others_still_run(tmp_path):
     html = (tmp_path / "index.html").read_text()
     assert "ZeroDivisionError" in html and "data:image/png;base64," in html and "the paper&#x27;s caption" in html
     assert "src='http" not in html and "<script" not in html  # one self-contained page
+    assert data["complete"] and data["pending"] == [] and "Partial" not in html
     assert (tmp_path / "ok_figure.png").stat().st_size > 1000 and (tmp_path / "ok_figure.svg").stat().st_size > 1000
