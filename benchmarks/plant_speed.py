@@ -12,6 +12,9 @@ four-hd_visc case whose own compute time exceeded step_s. That is a lower bound 
 service's late fraction (it leaves out sleeping/wake-up jitter, socket I/O and catch-up).
 late_fraction_4visc is measured by the real-time service with ``--realtime`` (root: runs
 scenarios/plant_rt_4visc.yaml on Mininet + Open vSwitch, ~25 s); without it, it is null.
+``--realtime`` also prints min_time_scale_4visc and min_time_scale_50visc: the smallest k (1, 2, 4, …
+64) at which plant_rt_4visc / all_visc_50 hold — < 1 % late steps, ≥ 99 % of every turbine's answers
+within one sample, no converter trip (benchmarks/time_scale.py's judge; ~5–15 min).
 """
 
 from __future__ import annotations
@@ -82,6 +85,23 @@ def _realtime_late_fraction() -> float | None:
     return round(summary["late_steps"] / summary["steps"], 4) if summary.get("steps") else None
 
 
+def _min_time_scales() -> dict:
+    import tempfile  # noqa: PLC0415
+    from pathlib import Path  # noqa: PLC0415
+
+    from time_scale import smallest_time_scale  # noqa: PLC0415 - benchmarks/time_scale.py, beside this file
+
+    out: dict = {}
+    with tempfile.TemporaryDirectory() as work:
+        for key, name, start in (("4visc", "plant_rt_4visc", 1.0), ("50visc", "all_visc_50", 1.0)):
+            found, tried = smallest_time_scale(name, Path(work), start=start)
+            out[f"min_time_scale_{key}"] = found
+            out[f"time_scale_tried_{key}"] = {k: {m: v[m] for m in ("late_fraction", "worst_within_one_sample",
+                                                                       "converter_trips", "holds")}
+                                              for k, v in tried.items()}
+    return out
+
+
 def main() -> None:
     args = [a for a in sys.argv[1:] if not a.startswith("--")]
     realtime = "--realtime" in sys.argv[1:]
@@ -97,6 +117,8 @@ def main() -> None:
         out["realtime_factor_50wt_4hd_visc"] = round(_rate(p, t_sim), 3)
         out["compute_over_step_fraction_4visc"] = round(_over_step_fraction(p, t_sim), 4)
         out["late_fraction_4visc"] = _realtime_late_fraction() if realtime else None
+        if realtime:
+            out.update(_min_time_scales())
     except RuntimeError as exc:  # sdc_unit.law not available
         out["realtime_factor_50wt_4hd_visc"] = None
         out["note"] = str(exc)

@@ -41,6 +41,20 @@ def judge(s: dict) -> dict:
             "holds": late < LATE_MAX and worst is not None and worst >= WITHIN_ONE_MIN and not trips}
 
 
+def smallest_time_scale(name: str, work: Path, start: float = 1.0, largest: float = 64.0) -> tuple[float | None, dict]:
+    """The smallest k of start, 2·start, … largest at which ``scenarios/<name>.yaml`` holds
+    (:func:`judge`), and the verdict of every k tried; None if none does."""
+    tried: dict = {}
+    k = start
+    while k <= largest:
+        verdict = judge(run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_k{k:g}", "--time-scale", f"{k:g}"))
+        tried[f"{k:g}"] = verdict
+        if verdict["holds"]:
+            return k, tried
+        k *= 2
+    return None, tried
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", default="fault_4visc_network,all_visc_50")
@@ -59,15 +73,7 @@ def main() -> int:
                     "scenarios": {}}
     started = time.time()
     for name in args.scenarios.split(","):
-        tried, found, k = {}, None, args.start
-        while k <= args.max:
-            verdict = judge(run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_k{k:g}",
-                                     "--time-scale", f"{k:g}"))
-            tried[f"{k:g}"] = verdict
-            if verdict["holds"]:
-                found = k
-                break
-            k *= 2
+        found, tried = smallest_time_scale(name, work, args.start, args.max)
         result["scenarios"][name] = {"min_time_scale": found, "tried": tried}
         if args.auto:
             s = run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_auto", "--time-scale", "auto")
