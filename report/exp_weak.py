@@ -63,6 +63,7 @@ def _f7(ctx: Context) -> dict[str, Finding]:
             band[name] = hb.value
     val = {n: b.value for n, b in bounds.items()}
     ev = {n: f"{len(b.evaluations)} runs, bracket {_fmt_bracket(b)}"
+          + "".join(f"; SCR {x:.3f}: {settling(r, T_EVENT).describe()}" for x, r in sorted(traces[n].items()))
           + (f"; {BAND} only above SCR {_fmt(band[n])}" if n in band else "")
           for n, b in bounds.items()}
     found["F7.a"] = _boundary_finding(bounds["none"], 2.04, ev["none"])
