@@ -167,6 +167,10 @@ def _c1(ctx: Context) -> dict[str, Finding]:
     }
 
 
+def _num(x) -> str:
+    return "—" if x is None else f"{x:.2g}"
+
+
 def _abnormal(summary: dict, ts: dict, wt: str, t_fault: float) -> tuple[bool, str]:
     """Whether ``wt`` left SDViSC operation after ``t_fault``: fell back, tripped, or its mode changed."""
     fb = (summary.get("fallbacks") or {}).get(wt, 0)
@@ -218,7 +222,7 @@ def _c3(ctx: Context) -> dict[str, Finding]:
                         {"abnormal": abn_off}),
         "C3.b": Finding(f"backup sdc2 sent {backup.get('ctrl_tx', 0)} CTRL", holds(backup.get("ctrl_tx", 0) > 0),
                         "summary.json turbines.wt1_1.per_sdc.sdc2", {"sdc2": backup}),
-        "C3.c": Finding(f"with failover: {why_on}; take-over jump {jump} p.u.", holds(not abn_on),
+        "C3.c": Finding(f"with failover: {why_on}; take-over jump {_num(jump)} p.u.", holds(not abn_on),
                         "normal = stays in remote (SDViSC) mode, no fall-back or trip", {"abnormal": abn_on, "jump": jump}),
     }
 
