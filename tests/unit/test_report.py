@@ -164,3 +164,16 @@ def test_a_failed_experiment_is_reported_and_the_others_still_run(tmp_path):
     assert "src='http" not in html and "<script" not in html  # one self-contained page
     assert data["complete"] and data["pending"] == [] and "Partial" not in html
     assert (tmp_path / "ok_figure.png").stat().st_size > 1000 and (tmp_path / "ok_figure.svg").stat().st_size > 1000
+
+
+def test_the_paper_scenarios_load_and_run_the_full_farm_at_the_auto_time_scale():
+    from report.network_runs import PAPER_SCENARIOS
+    from scenarios.loader import load_scenario
+
+    files = sorted(PAPER_SCENARIOS.glob("*.yaml"))
+    assert len(files) >= 10
+    for path in files:
+        sc = load_scenario(path)
+        assert sc.name == path.stem and sc.time_scale == "auto" and sc.plant.model == "full", path
+    named = {w.split()[-1] for e in EXPERIMENTS if e.kind == "cyber" for w in e.command.split(";")}
+    assert named and all((PAPER_SCENARIOS.parent.parent / n).exists() for n in named), named
