@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from plant import kernels
 from plant import turbine as T
 from sdc_unit import law
 from sdc_unit.params import ViscParams
@@ -22,11 +23,20 @@ class Commands:
     def apply_remote(self, index_array, v_ref_d, v_ref_q, i_ref_d=None, i_ref_q=None) -> None:
         """Store the received references (common frame, turbine p.u.); i_ref is used only with
         ``TurbineParams.remote_apply == "i_ref"``."""
-        idx = np.atleast_1d(np.asarray(index_array, dtype=int))
-        self.tb.v_hold[idx] = np.asarray(v_ref_d) + 1j * np.asarray(v_ref_q)
-        if i_ref_d is not None and i_ref_q is not None:
-            self.tb.i_hold[idx] = np.asarray(i_ref_d) + 1j * np.asarray(i_ref_q)
-        self.tb.last_rx_step[idx] = self.k
+        tb = self.tb
+        refs = (v_ref_d, v_ref_q, i_ref_d, i_ref_q) if i_ref_d is not None and i_ref_q is not None else (v_ref_d, v_ref_q)
+        idx = index_array
+        if (type(idx) is np.ndarray and idx.dtype == np.intp and idx.ndim == 1
+                and all(type(r) is np.ndarray and r.dtype == np.float64 and r.shape == idx.shape for r in refs)):
+            # the plant service's call, every step: one compiled loop instead of small-array numpy
+            kernels.store_remote(tb.v_hold, tb.i_hold, tb.last_rx_step, idx, refs[0], refs[1], refs[-2], refs[-1],
+                                 len(refs) == 4, self.k)
+        else:
+            idx = np.atleast_1d(np.asarray(idx, dtype=int))
+            tb.v_hold[idx] = np.asarray(v_ref_d) + 1j * np.asarray(v_ref_q)
+            if len(refs) == 4:
+                tb.i_hold[idx] = np.asarray(i_ref_d) + 1j * np.asarray(i_ref_q)
+            tb.last_rx_step[idx] = self.k
         self._references_changed()
 
     def _references_changed(self) -> None:
@@ -44,12 +54,12 @@ class Commands:
         rem = self._mode_info()[2]
         if not rem.size:
             return
+        tp = self.params.turbine
+        if not kernels.remote_needs_action(self.X, rem, tb.last_rx_step, self.k, self.step_s, tp.trip_current,
+                                           tp.remote_loss_fallback_s, tb.fallback_enabled):
+            return  # the usual case: no current above the trip level, no reference too old
         i_mag = np.abs(self.X[T.IF * self.n + rem])  # (turbine.IF row of the state, layout.py)
         rx_step = tb.last_rx_step[rem]
-        tp = self.params.turbine
-        if not (i_mag.max() > tp.trip_current
-                or tb.fallback_enabled and (self.k - rx_step.min()) * self.step_s >= tp.remote_loss_fallback_s):
-            return  # the usual case, decided on the largest current and the oldest reference
         over = rem[i_mag > tp.trip_current]
         late = rem[(self.k - rx_step) * self.step_s >= tp.remote_loss_fallback_s]
         if not tb.fallback_enabled:

@@ -183,6 +183,9 @@ def load_kernels() -> None:
     kernels.rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, v_ext, out[size:2 * size], rows,
                               out[2 * size + 3:], False)
     kernels.slow_terms(X, constants, np.ones(1), np.ones(1, dtype=bool), np.ones(1), np.ones(1), slow)
+    kernels.remote_needs_action(X, np.zeros(1, dtype=np.intp), np.zeros(1, dtype=np.int64), 1, 1.0, 1.0, 1.0, True)
+    kernels.store_remote(v_ext, v_ext.copy(), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.intp), np.ones(1),
+                         np.ones(1), np.ones(1), np.ones(1), True, 1)
     flat = np.ones(4)
     etd2_predict(flat, flat, flat, flat)
     etd2_correct(flat, flat, flat, flat, flat, flat)

@@ -306,3 +306,30 @@ def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
         s_max = max(s_max, math.sqrt(p_star * p_star + q_cmd[j] * q_cmd[j]))
         p_avail_min = min(p_avail_min, p_avail)
     return max(0.3, s_max / constants[Const.i_max_gfl]), p_avail_min
+
+
+@njit(**_OPTS)
+def remote_needs_action(X, rem, last_rx_step, k, step_s, trip_current, loss_s, fallback_enabled):
+    """True if a remote turbine ``rem`` has a filter current above ``trip_current`` or, with the
+    fall-back enabled, a newest reference ``loss_s`` or more old (``Commands._check_fallback``)."""
+    n = last_rx_step.shape[0]
+    for j in rem:
+        if abs(X[IF * n + j]) > trip_current:
+            return True
+        if fallback_enabled and (k - last_rx_step[j]) * step_s >= loss_s:
+            return True
+    return False
+
+
+@njit(**_OPTS)
+def store_remote(v_hold, i_hold, last_rx_step, idx, v_d, v_q, i_d, i_q, with_current, k):
+    """Hold the received references of turbines ``idx`` (``Commands.apply_remote``), step ``k``."""
+    n = v_hold.shape[0]
+    for m in range(idx.shape[0]):
+        j = idx[m]
+        if j < 0 or j >= n:
+            raise IndexError("turbine index out of range")
+        v_hold[j] = complex(v_d[m], v_q[m])
+        if with_current:
+            i_hold[j] = complex(i_d[m], i_q[m])
+        last_rx_step[j] = k

@@ -1,5 +1,7 @@
 """Steady state of the 500 MW farm, power balance and the measurement interface (validation item 1)."""
 
+import math
+
 import numpy as np
 import pytest
 
@@ -141,3 +143,41 @@ def test_slow_term_hold_matches_per_step_evaluation():
     assert np.max(np.abs(a["pitch"] - b["pitch"])) < 0.05
     assert np.max(np.abs(a["omega_r"] - b["omega_r"])) < 1e-3
     assert np.max(np.abs(a["p_wt"] - b["p_wt"])) < 1e-3
+
+
+def test_apply_remote_holds_the_same_references_from_arrays_and_from_lists():
+    """The plant service's call (intp index, float64 arrays: one compiled loop) and any other call
+    (lists, scalars) hold the same references and the same reception step; a turbine index outside
+    the plant is refused, not written."""
+    fast, general = Plant(n_turbines=5), Plant(n_turbines=5)
+    idx = np.array([1, 3], dtype=np.intp)
+    v_d, v_q, i_d, i_q = np.array([1.01, 0.99]), np.array([0.1, -0.2]), np.array([0.5, 0.6]), np.array([0.0, 0.3])
+    for p in (fast, general):
+        p.set_mode(idx.tolist(), "remote")
+        p.step()
+    fast.apply_remote(idx, v_d, v_q, i_d, i_q)
+    general.apply_remote(idx.tolist(), v_d.tolist(), v_q.tolist(), i_d.tolist(), i_q.tolist())
+    for p in (fast, general):
+        assert np.array_equal(p.tb.v_hold[idx], v_d + 1j * v_q) and np.array_equal(p.tb.i_hold[idx], i_d + 1j * i_q)
+        assert np.array_equal(p.tb.last_rx_step[idx], [p.k, p.k])
+    fast.apply_remote(idx, v_d, v_q)  # voltage references only: the current references stay
+    assert np.array_equal(fast.tb.i_hold[idx], i_d + 1j * i_q)
+    with pytest.raises(IndexError):
+        fast.apply_remote(np.array([5], dtype=np.intp), v_d[:1], v_q[:1])
+
+
+def test_remote_reference_loss_falls_back_exactly_at_the_stated_age():
+    """Fall-back when the newest reference is ``remote_loss_fallback_s`` old, not a step earlier."""
+    p = Plant(n_turbines=3)
+    p.set_mode(1, "remote")
+    m = p.measurements()
+    v, i = m["v_d"][1] + 1j * m["v_q"][1], m["i_d"][1] + 1j * m["i_q"][1]
+    vc = v + (p.params.turbine.rf + 1j * p.params.turbine.lf) * i
+    p.apply_remote(np.array([1], dtype=np.intp), np.array([vc.real]), np.array([vc.imag]))
+    k_rx = p.k
+    loss_steps = math.ceil(p.params.turbine.remote_loss_fallback_s / p.step_s - 1e-9)
+    while p.k < k_rx + loss_steps:
+        assert p.tb.mode[1] == 2, f"fell back after {p.k - k_rx} steps, before {loss_steps}"
+        p.step()
+    p.step()  # the check runs at the start of a step
+    assert p.tb.mode[1] == 0 and p.fallbacks[1] == 1
