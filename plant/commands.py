@@ -125,8 +125,13 @@ class Commands:
         self.visc_params = params
         self._cache = None
 
-    def set_battery(self, index, on: bool = True) -> None:
-        self.tb.battery[np.atleast_1d(index)] = bool(on)
+    def set_battery(self, index, on: bool = True, soc: float | None = None) -> None:
+        """Connect (or disconnect) the batteries of turbines ``index`` to their DC links (plant/battery.py);
+        ``soc`` sets their state of charge (default: kept, initially BatteryParams.soc_init)."""
+        idx = np.atleast_1d(index)
+        self.tb.battery[idx] = bool(on)
+        if soc is not None:
+            self.tb.batt.soc[idx] = float(soc)
         self._cache = None
 
     def set_power_ref(self, index, p=None, q=None, mppt: bool = False) -> None:

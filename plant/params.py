@@ -146,10 +146,10 @@ class TurbineParams:
     """DC chopper (braking resistor) threshold, p.u. [assumed]."""
     k_chop: float = 5.0
     """DC chopper gain, p.u. power / p.u. overvoltage (max 1.5 p.u. power; 2 k/tau_dc = 1250 /s keeps the explicit step stable) [assumed]."""
-    r_batt: float = 0.2
-    """Battery internal resistance on the DC side, p.u. on turbine rating/DC base [assumed; 2/(tau_dc r_batt) = 1250 /s keeps the explicit step stable]."""
-    v_batt: float = 1.0
-    """Battery open-circuit voltage, p.u. of DC base [assumed]; SOC not modelled (2000 Ah >> seconds)."""
+    v_dc_base_kv: float = 1.1
+    """DC-link voltage base (v_dc = 1 p.u.), kV [assumed: the DC voltage at which the modulation limit
+    m_max = 1.15 is reached by sqrt(2) x 0.69 kV x 1.15 = 1.12 kV (space-vector PWM, linear range);
+    1.1 kV is typical of 690 V back-to-back converters]. Used by the battery (plant/battery.py)."""
     remote_apply: str = "v_ref"
     """Remote mode applies "v_ref" (the received converter voltage reference, held) [brief] or "i_ref"
     (the received limited current reference through the converter's local current loop
@@ -207,12 +207,54 @@ class CondenserParams:
 
 
 @dataclass
+class BatteryParams:
+    """Li-ion battery in parallel with a turbine's DC capacitor (plant/battery.py; one per turbine,
+    switched by ``Plant.set_battery``). Cell values: the A123 ANR26650M1 (LiFePO4) parameter set of the
+    generic battery model of Tremblay & Dessaint, "Experimental validation of a battery dynamic model
+    for EV applications", World Electric Vehicle Journal 3 (2009), as printed in the MathWorks
+    Specialized Power Systems "Battery" block documentation [src: Tremblay 2009 / MathWorks]."""
+
+    capacity_ah: float = 2000.0
+    """Pack capacity, Ah [paper: "a 2000 Ah Li-ion battery"]."""
+    soc_init: float = 0.5
+    """Initial state of charge, - [assumed: mid-range, room to discharge and to charge]. The series cell
+    count is chosen so that OCV(soc_init) = v_dc_ref: at rest the battery floats on the DC link."""
+    soc_min: float = 0.1
+    """SOC below which discharging stops, - [assumed; the Tremblay model is validated for SOC 10-100 %]."""
+    soc_max: float = 0.9
+    """SOC above which charging stops, - [assumed: a usual 10-90 % window]."""
+    c_rate_discharge: float = 4.5
+    """Largest discharge current, C (multiples of capacity_ah per hour) [assumed: 4.5 C = 9 kA, the
+    turbine's rated DC current 10 MVA / 1.1 kV, since the battery's power leaves through the grid-side
+    converter; the A123 cells allow 30 C continuous]."""
+    c_rate_charge: float = 4.5
+    """Largest charge current, C [assumed, as c_rate_discharge; within the A123 cells' 5 C charge rating]."""
+    cell_v_full: float = 3.7
+    """Cell fully charged voltage (Tremblay: V_full), V [src: Tremblay 2009 / MathWorks, A123 ANR26650M1]."""
+    cell_v_exp: float = 3.4
+    """Cell voltage at the end of the exponential zone (V_exp), V [src: same]."""
+    cell_q_exp: float = 0.23
+    """Charge removed at the end of the exponential zone (Q_exp), Ah [src: same]."""
+    cell_v_nom: float = 3.22
+    """Cell nominal voltage (end of the nominal zone, V_nom), V [src: same]."""
+    cell_q_nom: float = 2.07
+    """Charge removed at the end of the nominal zone (Q_nom), Ah [src: same]."""
+    cell_q: float = 2.3
+    """Cell capacity (Q), Ah [src: same]."""
+    cell_r: float = 0.010
+    """Cell internal resistance, ohm [src: same]."""
+    cell_i_fit: float = 2.3
+    """Nominal discharge current of the fitted discharge curve (1 C), A [src: same]."""
+
+
+@dataclass
 class PlantParams:
     """All plant parameters."""
 
     grid: GridParams = field(default_factory=GridParams)
     turbine: TurbineParams = field(default_factory=TurbineParams)
     condenser: CondenserParams = field(default_factory=CondenserParams)
+    battery: BatteryParams = field(default_factory=BatteryParams)
     n_clusters: int = 5
     """Number of clusters, - [paper]."""
     v_wind: float = 12.0

@@ -45,7 +45,7 @@ class Plant(Commands, RightHandSide):
         self.method = method
         self.k = 0
         self.net = Network(self.params, n)
-        self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind)
+        self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind, self.params.battery)
         self.sc = Condenser(self.params.condenser)
         self.layout = StateLayout(n)
         self.size = self.layout.size
@@ -172,7 +172,11 @@ class Plant(Commands, RightHandSide):
 
     def _advance(self, X, xl, evaluation=None) -> None:
         """Store the new state, count the step and evaluate it (the next step's first stage) unless
-        ``evaluation`` = (dX, aux) of it is given (the compiled step)."""
+        ``evaluation`` = (dX, aux) of it is given (the compiled step). Batteries: their SOC and
+        energy advance by the step at the current of its first stage (plant/battery.py)."""
+        if self._cache is not None and self.tb.battery.any():
+            aux = self._cache[2]
+            self.tb.batt.count(np.where(self.net.plugged, aux["ibatt"], 0.0), aux["vdc"], self.step_s)
         self.X, self.xl = X, xl
         self.k += 1
         if evaluation is not None:
@@ -187,13 +191,15 @@ class Plant(Commands, RightHandSide):
     def _coefficients(self, h: float, law_size: int | None = None) -> Etd2Coefficients:
         """ETD2 coefficients (integrator.py) for step h: c = OMEGA0 kpc / lf on the filter current of
         plugged turbines with a local current loop (grid-following, and remote with remote_apply =
-        "i_ref"; the closed current loop is di/dt = -c (i - i*) + ...), c = 0 elsewhere (-> Heun),
-        and everywhere with method "rk2" or for the law states (``law_size``)."""
+        "i_ref"; the closed current loop is di/dt = -c (i - i*) + ...), c = 1/(tau_dc r_b) on the
+        DC link w of plugged turbines with a battery (its pole, plant/battery.py), c = 0 elsewhere
+        (-> Heun), and everywhere with method "rk2" or for the law states (``law_size``)."""
         if law_size is not None:
             key = (h, "law", law_size)
         else:
             self._mode_info()  # refreshes self._mode_key; every change of `plugged` refactorises the network
-            key = (h, self._mode_key, self.net.n_factorizations, self.params.turbine.remote_apply)
+            key = (h, self._mode_key, self.net.n_factorizations, self.params.turbine.remote_apply,
+                   self.tb.battery.tobytes())
         coef = self._coef.get(key)
         if coef is not None:
             return coef
@@ -206,6 +212,8 @@ class Plant(Commands, RightHandSide):
             if tp.remote_apply == "i_ref":
                 loop = loop | (self.tb.mode == T.REMOTE)
             c[: self.n] = np.where(loop & self.net.plugged, OMEGA0 * tp.kpc / tp.lf, 0.0)
+            c[T.W * self.n:(T.W + 1) * self.n] = np.where(self.tb.battery & self.net.plugged,
+                                                           self.tb.batt.dc_link_pole(tp.tau_dc), 0.0)
         coef = self._coef[key] = Etd2Coefficients(c, h, complex_state=law_size is None)
         return coef
 
@@ -256,6 +264,8 @@ class Plant(Commands, RightHandSide):
         if lo is not None:
             visc_delta[self.visc_idx] = lo.delta
             visc_e[self.visc_idx] = lo.e_mag
+        p_batt = aux.get("pbatt", 0.0)
+        p_batt = np.where(net.plugged, p_batt, 0.0) if np.ndim(p_batt) else np.zeros(n)
         return {
             "t": self.t,
             "v_pcc": abs(V[net.pcc]), "f_pcc_hz": F_NOMINAL_HZ * float(aux["f_pcc_pu"]), "v_os": abs(V[net.os_mv]),
@@ -269,6 +279,7 @@ class Plant(Commands, RightHandSide):
             "v_dc": aux["vdc"], "pitch": S[T.B].real.copy(), "omega_r": S[T.WR].real.copy(),
             "v_pcc_ph": v_ph, "i_sc_ph_max": float(np.max(i_sc_ph)), "i_fault": abs(i_f),
             "p_me": aux["pme"], "losses": net.series_losses(V),
+            "soc": self.tb.batt.soc.copy(), "p_batt": p_batt, "e_batt_mwh": self.tb.batt.energy_mwh(),
             # aliases shared with plant.minimal (used by plant.recorder)
             "p": s_wt.real, "q": s_wt.imag, "i_mag": np.abs(i), "mode": self.tb.mode.copy(),
         }

@@ -28,7 +28,7 @@ Equations (t in s, w0 = OMEGA0):
              P_chop = min(k_chop max(v_dc - v_chop, 0), 1.5)   (braking chopper)
     MSC:     P_me = clip(kp_dc (v_dc* - v_dc) + x_d, p_me_min, P_avail), dx_d/dt = ki_dc (v_dc* - v_dc)
              (the MSC current loop is taken as ideal: i_sd* from the PI, i_sq* = 0, so P_me follows)
-    battery: P_batt = v_dc (v_batt - v_dc) / r_batt   (only where enabled)
+    battery: P_batt = v_dc i_b, i_b from OCV(SOC), resistance and limits (plant/battery.py; only where enabled)
     rotor (single mass, stiff shaft, rotor+generator inertia lumped):
              2 h_rotor w_r dw_r/dt = P_aero - P_me
     aero:    P_aero = (Cp(lambda, beta)/Cp_opt) (v_w / v_rated)^3,  lambda = lambda_opt w_r v_rated / v_w
@@ -48,7 +48,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant.params import TurbineParams
+from plant.battery import BatteryBank
+from plant.params import BatteryParams, TurbineParams
 from sdvisc.vocabulary import OMEGA0
 
 IF, XI, TH, XP, W, XD, WR, B, XB = range(9)
@@ -76,12 +77,13 @@ CP_OPT = float(np.max(_CPS))
 class TurbineBank:
     """Parameters, modes and the right-hand side of N turbines."""
 
-    def __init__(self, params: TurbineParams, n: int, v_wind: float):
+    def __init__(self, params: TurbineParams, n: int, v_wind: float, battery: BatteryParams | None = None):
         self.p = params
         self.n = n
         self.v_wind = np.full(n, float(v_wind))
         self.mode = np.zeros(n, dtype=int)
-        self.battery = np.zeros(n, dtype=bool)
+        self.battery = np.zeros(n, dtype=bool)  # battery connected (set_battery)
+        self.batt = BatteryBank(battery or BatteryParams(), params, n)
         self.q_cmd = np.zeros(n)
         self.p_cmd = np.zeros(n)
         self.mppt = np.ones(n, dtype=bool)  # grid-following P* from the MPPT curve (else p_cmd)
@@ -174,7 +176,7 @@ class TurbineBank:
         vconv, d, e, ev, lim, vdc = self._grid_side(S, v, vconv_ext, ext_mask, any_ext, sl)
         i = S[IF]
         pconv = (vconv * i.conj()).real
-        edc, pme, aw_dc, p_dc, pbatt = self._machine_side(S, vdc, pconv, sl)
+        edc, pme, aw_dc, p_dc, pbatt, ibatt = self._machine_side(S, vdc, pconv, sl)
         dS = np.empty_like(S) if out is None else out
         dSr = dS.real
         dS.imag[TH:] = 0.0  # real rows
@@ -192,8 +194,8 @@ class TurbineBank:
         np.multiply(sl["paero"] - pme, sl["inv2hw"], out=dSr[WR])
         dSr[B] = sl["db"]
         dSr[XB] = sl["dxb"]
-        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "paero": sl["paero"], "vlim": lim,
-               "ev": ev}
+        aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "ibatt": ibatt, "paero": sl["paero"],
+               "vlim": lim, "ev": ev}
         return dS, aux
 
     def _grid_side(self, S, v, vconv_ext, ext_mask, any_ext, sl):
@@ -236,7 +238,7 @@ class TurbineBank:
 
     def _machine_side(self, S, vdc, pconv, sl):
         """DC-voltage PI, MSC power clip, battery and chopper: (v_dc error, P_me, anti-windup mask or
-        None, net power into the DC link, P_batt)."""
+        None, net power into the DC link, P_batt, battery current i_b)."""
         p = self.p
         edc = p.v_dc_ref - vdc
         pme_u = p.kp_dc * edc
@@ -247,13 +249,14 @@ class TurbineBank:
             pme = np.maximum(np.minimum(pme_u, sl["pav"]), p.p_me_min)
             aw_dc = (pme_u - pme) * edc > 0.0  # clipped and the error pushes further out
         p_dc = pme - pconv
-        pbatt = 0.0
+        pbatt = ibatt = 0.0
         if sl["any_batt"]:
-            pbatt = np.where(self.battery, vdc * (p.v_batt - vdc) / p.r_batt, 0.0)
+            ibatt = self.batt.current(vdc, self.battery)
+            pbatt = vdc * ibatt
             p_dc = p_dc + pbatt
         if _max(vdc) > p.v_chop:
             p_dc = p_dc - np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
-        return edc, pme, aw_dc, p_dc, pbatt
+        return edc, pme, aw_dc, p_dc, pbatt, ibatt
 
     # ------------------------------------------------------------------ initialisation
     def init_state(self, v, i):
