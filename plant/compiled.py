@@ -2,19 +2,24 @@
 
 ``CompiledPath`` holds no reference to the plant: every call gets the state and the arrays it
 reads passed in, and returns new arrays (an evaluation never overwrites arrays handed out
-earlier). The plant decides where it applies (``covers``) and keeps its own bookkeeping.
+earlier). The plant decides where it applies (``covers``) and keeps its own bookkeeping. With
+hd_visc turbines the evaluation and the step are those of plant/visc_kernels.py (the ViSC law
+compiled in).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from plant import kernels
+from plant import kernels, visc_kernels
 from plant.condenser import NX as SC_NX
 from plant.integrator import etd2_correct, etd2_predict
 from plant.layout import GRID_NX, PLL_NX, StateLayout
 from plant.slots import Const, Row, Scalar, Slow, pack, slow_constants, turbine_gains
 from plant.turbine import NS
+from sdc_unit.law import outputs_from_rows
+from sdc_unit.law_kernels import NX as LAW_NX
+from sdc_unit.law_kernels import OUT_ROWS, PARAM_ROWS
 from sdvisc.vocabulary import MEAS_FIELDS
 
 
@@ -37,18 +42,19 @@ _SCALAR_KEYS = {"i_sc": Scalar.i_sc, "e_grid": Scalar.e_grid, "e_sc": Scalar.e_s
 class CompiledAux(dict):
     """The results of a compiled evaluation as the plant's ``aux`` dict (plant/equations.py),
     each entry built on first access from the buffer ``out`` and ``rows``; the measurement dict
-    and ``v_pcc`` at once (the plant reads them after every step)."""
+    and ``v_pcc`` at once (the plant reads them after every step). ``law``: (law states, law
+    output rows) of the hd_visc turbines, or None."""
 
     __slots__ = ("_source",)
 
-    def __init__(self, out, rows, n: int, size: int):
+    def __init__(self, out, rows, n: int, size: int, law=None):
         o = 2 * size  # out = [X+ | dX | node_v | scalars] (kernels.split)
         self["v_pcc"] = complex(out[o + n])
         self["meas"] = dict(zip(MEAS_FIELDS, rows))
-        self._source = (out, rows, n, o)
+        self._source = (out, rows, n, o, law)
 
     def __missing__(self, key):
-        out, rows, n, o = self._source
+        out, rows, n, o, law = self._source
         if key == "v":
             val = out[o:o + n]
         elif key == "node_v":
@@ -66,7 +72,7 @@ class CompiledAux(dict):
         elif key == "f_pcc_pu":
             val = out[o + n + 2 + Scalar.f_pcc_pu].real
         elif key == "law_out":
-            val = None
+            val = None if law is None else outputs_from_rows(*law)
         else:
             raise KeyError(key)
         self[key] = val
@@ -148,18 +154,44 @@ class CompiledPath:
             return None
         return dX, (CompiledAux(out, rows, self.n, self.size) if want_aux else None)
 
-    def step(self, X, k1, coefficients, turbines, v_load: complex, evaluate_next: bool):
-        """One ETD2 step of X (first stage k1, ``Etd2Coefficients``): (X+, (dX+, aux+) or None),
-        or None when its second stage needs the numpy path (nothing done)."""
-        out, rows = np.empty(self._out_size, dtype=complex), np.empty(self._rows_shape)
-        code = kernels.step(X, k1, coefficients.rows, v_load, self.constants, self.held.rows, turbines.mode,
-                            turbines.v_hold, turbines.i_hold, self.z_planes, out, rows, evaluate_next)
+    def evaluate_visc(self, X, xl, turbines, v_load: complex, visc_idx, law_c, want_aux: bool):
+        """(dX, dxl, aux or None) of state X and law states xl of the hd_visc turbines ``visc_idx``
+        (law parameters ``law_c``, rows PARAM_ROWS), or None (a limiter would act)."""
+        out, rows = self._buffers()
+        xl = np.ascontiguousarray(xl)
+        dxl, law_rows = np.empty_like(xl), np.empty((len(OUT_ROWS), xl.shape[1]))
+        if not visc_kernels.evaluate_visc(X, xl, v_load, self.constants, self.held.rows, turbines.mode,
+                                          turbines.v_hold, turbines.i_hold, self.z_planes, visc_idx, law_c, out, dxl,
+                                          rows, law_rows, want_aux):
+            return None
+        aux = CompiledAux(out, rows, self.n, self.size, (xl, law_rows)) if want_aux else None
+        return out[self.size:2 * self.size], dxl, aux
+
+    def step(self, X, k1, coefficients, turbines, v_load: complex, evaluate_next: bool, law=None):
+        """One ETD2 step of X (first stage k1, ``Etd2Coefficients``) and, with hd_visc turbines
+        (``law`` = (xl, l1, their Etd2Coefficients, visc_idx, law_c)), of their law states:
+        (X+, xl+, (dX+, aux+) or None, dxl+), or None when its second stage needs the numpy path
+        (nothing done)."""
+        out, rows = self._buffers()
+        xl_next = dxl = law_rows = None
+        if law is None:
+            code = kernels.step(X, k1, coefficients.rows, v_load, self.constants, self.held.rows, turbines.mode,
+                                turbines.v_hold, turbines.i_hold, self.z_planes, out, rows, evaluate_next)
+        else:
+            xl, l1, law_coefficients, visc_idx, law_c = law
+            xl, l1 = np.ascontiguousarray(xl), np.ascontiguousarray(l1)
+            xl_next, dxl, law_rows = np.empty_like(xl), np.empty_like(xl), np.empty((len(OUT_ROWS), xl.shape[1]))
+            code = visc_kernels.step_visc(X, k1, coefficients.rows, xl, l1, law_coefficients.rows, v_load,
+                                          self.constants, self.held.rows, turbines.mode, turbines.v_hold,
+                                          turbines.i_hold, self.z_planes, visc_idx, law_c, out, xl_next, dxl, rows,
+                                          law_rows, evaluate_next)
         if code == 1:
             return None
         x_next = out[:self.size]
         if code == 2 or not evaluate_next:
-            return x_next, None
-        return x_next, (out[self.size:2 * self.size], CompiledAux(out, rows, self.n, self.size))
+            return x_next, xl_next, None, None
+        aux = CompiledAux(out, rows, self.n, self.size, None if law is None else (xl_next, law_rows))
+        return x_next, xl_next, (out[self.size:2 * self.size], aux), dxl
 
 
 _loaded = False
@@ -183,6 +215,13 @@ def load_kernels() -> None:
     kernels.rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, v_ext, out[size:2 * size], rows,
                               out[2 * size + 3:], False)
     kernels.slow_terms(X, constants, np.ones(1), np.ones(1, dtype=bool), np.ones(1), np.ones(1), slow)
+    xl, law_c, law_coefficients = np.ones((LAW_NX, 1)), np.ones((len(PARAM_ROWS), 1)), np.ones((3, LAW_NX))
+    visc_idx, law_rows = np.zeros(1, dtype=np.int64), np.empty((len(OUT_ROWS), 1))
+    visc_kernels.evaluate_visc(X, xl, 1j, constants, slow, mode, v_ext, v_ext, z_planes, visc_idx, law_c, out,
+                               xl.copy(), rows, law_rows, True)
+    visc_kernels.step_visc(X, out[size:2 * size], np.ones((3, 2 * size)), xl, xl.copy(), law_coefficients, 1j,
+                           constants, slow, mode, v_ext, v_ext, z_planes, visc_idx, law_c, out, xl.copy(), xl.copy(),
+                           rows, law_rows, True)
     kernels.remote_needs_action(X, np.zeros(1, dtype=np.intp), np.zeros(1, dtype=np.int64), 1, 1.0, 1.0, 1.0, True)
     kernels.store_remote(v_ext, v_ext.copy(), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.intp), np.ones(1),
                          np.ones(1), np.ones(1), np.ones(1), True, 1)

@@ -9,7 +9,10 @@ hd_visc turbines (sdc_unit.law) and, on request, ``aux``, the algebraic results 
 Two implementations of the same equations (docs/plant.md):
 
 * compiled (plant/kernels.py via plant/compiled.py): the usual case, including hd_visc turbines,
-  whose law runs in numpy between the network solve and the rest of the right-hand side;
+  whose law (sdc_unit.law_kernels, compiled by sdc_unit.law_jit) runs between the network solve
+  and the rest of the right-hand side (plant/visc_kernels.py); with ``Plant.compiled_law = False``
+  the law runs in numpy (``sdc_unit.law``) between two kernels instead, the reference of the
+  compiled law in tests/unit/test_plant_jit.py;
 * general (``_rhs_general`` + ``TurbineBank.rhs`` + ``Condenser.rhs``): every limiter, batteries,
   unplugged turbines, the slow terms evaluated at every stage (``rhs_real``), ``jit=False``. It is
   the reference of the compiled path for these branches (tests/unit/test_plant_jit.py).
@@ -44,6 +47,8 @@ class RightHandSide:
         if not self.visc_idx.size:
             r = compiled.evaluate(X, self.tb, self._v_pcc_last)
             return None if r is None else (r[0], None, r[1] if want_aux else None)
+        if self.compiled_law:
+            return compiled.evaluate_visc(X, xl, self.tb, self._v_pcc_last, *self._law_arrays(), want_aux)
         node_v, sources = compiled.solve_network(X, self._v_pcc_last)
         v_ext, dxl, law_out = self._visc(self.layout.turbines(X), node_v[: self.n], xl, self.tb.v_hold)
         r = compiled.evaluate_given_network(X, node_v, sources, self.tb, v_ext, want_aux)
@@ -74,11 +79,20 @@ class RightHandSide:
         return {"v_d": vv.real, "v_q": vv.imag, "i_d": i.real, "i_q": i.imag, "p": s.real, "q": s.imag,
                 "v_dc": vdc, "omega_meas": om}
 
+    def _law_arrays(self):
+        """(hd_visc turbines, their law parameters as rows ``law.param_rows``) for the compiled law;
+        the rows are packed again only when the ViscParams object or the number of turbines changed
+        (ViscParams is frozen: a new V* or droop is a new object)."""
+        p, k = self.visc_params, self.visc_idx.size
+        packed = self._law_c
+        if packed is None or packed[0] is not p or packed[1] != k:
+            packed = self._law_c = (p, k, law.param_rows(p, k))
+        return self.visc_idx, packed[2]
+
     def _visc(self, S, v, xl, vext):
         """hd_visc turbines: (converter voltages incl. the law's, law derivatives, law outputs)."""
         meas = law.Measurements(**self._meas_arrays(S, v, self.visc_idx))
-        law_out = law.outputs(xl, meas, self.visc_params)
-        dxl = law.derivatives(xl, meas, self.visc_params)
+        dxl, law_out = law.evaluate(xl, meas, self.visc_params)
         off = ~self.net.plugged[self.visc_idx]
         if off.any():  # a disconnected ViSC is blocked: its law state is frozen too
             dxl = np.where(off, 0.0, dxl)

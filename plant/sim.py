@@ -57,6 +57,8 @@ class Plant(Commands, RightHandSide):
         self._coef = {}  # ETD2 coefficients by step length and mode/network key
         self._mode_key = None
         self._compiled = CompiledPath(self.params.turbine, self.layout) if jit else None  # jit=False: numpy only
+        self.compiled_law = True  # False: the hd_visc law in numpy between compiled kernels (a test's reference)
+        self._law_c = None  # (ViscParams, count, law.param_rows) for the compiled law
         self.slow_every = max(1, int(slow_every))
         self._slow_keep = False
         self._slow_next = 0
@@ -134,10 +136,11 @@ class Plant(Commands, RightHandSide):
             return
         coef = self._coefficients(self.step_s)
         compiled = self._compiled
-        if xl is None and compiled is not None and compiled.covers(self.tb, self.net):  # the usual case
-            r = compiled.step(X, k1, coef, self.tb, self._v_pcc_last, self.k + 1 < self._slow_next)
-            if r is not None:
-                self._advance(r[0], None, r[1])
+        if compiled is not None and compiled.covers(self.tb, self.net) and (xl is None or self.compiled_law):
+            law = None if xl is None else (xl, l1, self._coefficients(self.step_s, xl.size), *self._law_arrays())
+            r = compiled.step(X, k1, coef, self.tb, self._v_pcc_last, self.k + 1 < self._slow_next, law)
+            if r is not None:  # the usual case: (X+, xl+, (dX+, aux+) or None, dxl+)
+                self._advance(*r)
                 return
         self._advance(*self._etd2(X, xl, k1, l1, coef, self.step_s))
 
@@ -170,7 +173,7 @@ class Plant(Commands, RightHandSide):
     def _derivatives(self, X, xl):
         return self._evaluate(X, xl)[:2]
 
-    def _advance(self, X, xl, evaluation=None) -> None:
+    def _advance(self, X, xl, evaluation=None, dxl=None) -> None:
         """Store the new state, count the step and evaluate it (the next step's first stage) unless
         ``evaluation`` = (dX, aux) of it is given (the compiled step). Batteries: their SOC and
         energy advance by the step at the current of its first stage (plant/battery.py)."""
@@ -180,7 +183,7 @@ class Plant(Commands, RightHandSide):
         self.X, self.xl = X, xl
         self.k += 1
         if evaluation is not None:
-            self._cache = (evaluation[0], None, evaluation[1])
+            self._cache = (evaluation[0], dxl, evaluation[1])  # dxl: the law derivatives of the compiled step
             self._slow_keep = False
             self._v_pcc_last = evaluation[1]["v_pcc"]
             return

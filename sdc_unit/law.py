@@ -2,9 +2,11 @@
 
 This module is the single definition of the law. The plant integrates it as the
 "hardware-dependent ViSC" ground truth (``derivatives`` / ``outputs``); :mod:`sdc_unit.discrete`
-implements the same equations with discretised blocks. The quasi-stationary model and the circular
-limiter are written once, in :mod:`sdc_unit.law_kernels`, for this module, the discrete blocks and
-the compiled Tustin step alike. Dependencies: numpy only.
+implements the same equations with discretised blocks. The equations are written once, in
+:mod:`sdc_unit.law_kernels` (``law_rhs``, with the quasi-stationary model and the circular limiter
+the discrete blocks and the compiled Tustin step use too); this module runs them on arrays of N
+turbines, :mod:`sdc_unit.law_jit` compiles them for the plant's hd_visc turbines. Dependencies:
+numpy only.
 
 Conventions (shared with the plant): per unit on the turbine rating, common frame rotating at
 omega0 = 2*pi*f_base, complex vectors x = x_d + j*x_q, converter current positive out of the
@@ -50,25 +52,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .law_kernels import circular_limit, qsem_current
+from . import law_kernels as K
+from .law_kernels import IX_DELTA, IX_DW, IX_FLPF, IX_FW1, IX_FW2, IX_VFD, IX_VFQ, IX_XID, IX_XIQ, IX_XIV, NX
 from .params import ViscParams
 
-STATE_NAMES = (
-    "delta",
-    "dw",
-    "xi_v",
-    "vf_d",
-    "vf_q",
-    "xi_d",
-    "xi_q",
-    "f_lpf",
-    "f_w1",
-    "f_w2",
-    "f_ll1",
-    "f_ll2",
-)
-NX = len(STATE_NAMES)
-(IX_DELTA, IX_DW, IX_XIV, IX_VFD, IX_VFQ, IX_XID, IX_XIQ, IX_FLPF, IX_FW1, IX_FW2, IX_FLL1, IX_FLL2) = range(NX)
+# the state layout and the helpers are defined with the equations (law_kernels) and are the law's
+STATE_NAMES, IX_FLL1, IX_FLL2 = K.STATE_NAMES, K.IX_FLL1, K.IX_FLL2
+circular_limit, qsem_current, friction_output = K.circular_limit, K.qsem_current, K.friction_output
 
 
 @dataclass
@@ -134,97 +124,52 @@ def omega_s_of(meas, p: ViscParams):
     return np.ones_like(np.asarray(meas.v_d, dtype=float))
 
 
-def friction_output(f_lpf, f_w1, f_w2, f_ll1, f_ll2, p: ViscParams):
-    """Algebraic part of eq. (4) given its states: returns (V_F, s1, o1) (s1, o1 feed the lead-lags)."""
-    y1 = (p.k_f1 / p.t_v1) * (f_lpf - f_w1)
-    y2 = (p.k_f2 / p.t_v2) * (f_lpf - f_w2)
-    s1 = y1 + y2
-    r = p.t_1 / p.t_2
-    o1 = r * s1 + (1.0 - r) * f_ll1
-    vf = r * o1 + (1.0 - r) * f_ll2
-    return vf, s1, o1
+def param_values(p: ViscParams) -> list:
+    """The parameters as ``law_kernels.law_rhs`` reads them (rows PARAM_ROWS; each a float or an
+    array of N turbines, flags as 0.0/1.0)."""
+    values = [p.omega0 if name == "omega0" else getattr(p, name) for name in K.PARAM_ROWS]
+    return [float(v) if np.ndim(v) == 0 else np.asarray(v, dtype=float) for v in values]
 
 
-def _algebra(x, meas, p: ViscParams):
+def param_rows(p: ViscParams, n: int) -> np.ndarray:
+    """The parameters of N turbines as one float array (PARAM_ROWS, N), for the compiled law."""
+    return np.array([np.broadcast_to(v, (n,)) for v in param_values(p)], dtype=float)
+
+
+def evaluate(x, meas, p: ViscParams) -> tuple[np.ndarray, Outputs]:
+    """(dx/dt (NX, N), outputs) of the law for state x (NX, N) and measurements ``meas``."""
     x = np.asarray(x, dtype=float)
-    om_s = omega_s_of(meas, p)
-    dw = x[IX_DW]
-    omega = om_s + dw
-    vfd, vfq = x[IX_VFD], x[IX_VFQ]
-    vmag = np.hypot(vfd, vfq)
-    e_avr = (p.v_ref - vmag) + p.m_q * (p.q_ref - meas.q)
-    vfr, s1, o1 = friction_output(x[IX_FLPF], x[IX_FW1], x[IX_FW2], x[IX_FLL1], x[IX_FLL2], p)
-    vfr_applied = np.where(np.asarray(p.supp, dtype=bool), vfr, 0.0)
-    e_mag = p.k_pv * e_avr + x[IX_XIV] + p.e_ref + vfr_applied
-    isd, isq = qsem_current(e_mag, x[IX_DELTA], vfd, vfq, omega, p.r_v, p.l_v)
-    ild, ilq, limited = circular_limit(isd, isq, p.i_max)
-    p_lim = meas.v_d * ild + meas.v_q * ilq
-    p_e = np.where(limited, p_lim, meas.p)
-    ed = ild - meas.i_d
-    eq = ilq - meas.i_q
-    ffd, ffq = (vfd, vfq) if p.ff_filtered else (meas.v_d, meas.v_q)
-    v_ref_d = ffd - p.l_f * meas.i_q + p.k_pc * ed + x[IX_XID]
-    v_ref_q = ffq + p.l_f * meas.i_d + p.k_pc * eq + x[IX_XIQ]
-    return dict(
-        om_s=om_s,
-        omega=omega,
-        e_avr=e_avr,
-        s1=s1,
-        o1=o1,
-        vfr=vfr_applied,
-        e_mag=e_mag,
-        ild=ild,
-        ilq=ilq,
-        limited=limited,
-        p_e=p_e,
-        ed=ed,
-        eq=eq,
-        v_ref_d=v_ref_d,
-        v_ref_q=v_ref_q,
-    )
+    dx = np.empty_like(x)
+    out = [None] * len(K.OUT_ROWS)
+    K.law_rhs(x, [getattr(meas, name) for name in K.MEAS_ROWS], param_values(p), dx, out)
+    return dx, outputs_from_rows(x, out)
 
 
 def derivatives(x, meas, p: ViscParams):
     """dx/dt of the ViSC law (shape (NX, N)) for state x (NX, N) and measurements ``meas``."""
-    x = np.asarray(x, dtype=float)
-    a = _algebra(x, meas, p)
-    w0 = p.omega0
-    dx = np.zeros_like(x)
-    dx[IX_DELTA] = w0 * (x[IX_DW] + a["om_s"] - 1.0)
-    dx[IX_DW] = (p.p_ref - a["p_e"] - p.d * x[IX_DW]) / (2.0 * p.h)
-    hold_v = a["limited"] & np.asarray(p.avr_antiwindup, dtype=bool)
-    dx[IX_XIV] = p.k_iv * a["e_avr"] * (1.0 - hold_v)
-    run = 1.0 - (a["limited"] & np.asarray(p.freeze_vf_when_limited, dtype=bool))
-    dx[IX_VFD] = run * (meas.v_d - x[IX_VFD]) / p.t_vf
-    dx[IX_VFQ] = run * (meas.v_q - x[IX_VFQ]) / p.t_vf
-    dx[IX_XID] = p.k_ic * a["ed"]
-    dx[IX_XIQ] = p.k_ic * a["eq"]
-    u = -x[IX_DW]  # omega_s - omega
-    dx[IX_FLPF] = (u - x[IX_FLPF]) / p.t_lpf
-    dx[IX_FW1] = (x[IX_FLPF] - x[IX_FW1]) / p.t_v1
-    dx[IX_FW2] = (x[IX_FLPF] - x[IX_FW2]) / p.t_v2
-    dx[IX_FLL1] = (a["s1"] - x[IX_FLL1]) / p.t_2
-    dx[IX_FLL2] = (a["o1"] - x[IX_FLL2]) / p.t_2
-    return dx
+    return evaluate(x, meas, p)[0]
 
 
 def outputs(x, meas, p: ViscParams) -> Outputs:
     """Algebraic outputs of the law for state x and measurements ``meas``."""
-    a = _algebra(x, meas, p)
-    x = np.asarray(x, dtype=float)
-    n = x.shape[1]
+    return evaluate(x, meas, p)[1]
+
+
+def outputs_from_rows(x, out) -> Outputs:
+    """``Outputs`` of state x (NX, N) from ``law_rhs``'s output rows ``out`` (OUT_ROWS)."""
+    n = np.shape(x)[1]
     return Outputs(
-        v_ref_d=a["v_ref_d"],
-        v_ref_q=a["v_ref_q"],
-        i_ref_d=a["ild"],
-        i_ref_q=a["ilq"],
-        delta=x[IX_DELTA].copy(),
-        omega=a["omega"],
-        e_mag=a["e_mag"],
-        limited=np.asarray(a["limited"], dtype=bool),
+        v_ref_d=out[K.O_V_REF_D],
+        v_ref_q=out[K.O_V_REF_Q],
+        i_ref_d=out[K.O_I_REF_D],
+        i_ref_q=out[K.O_I_REF_Q],
+        delta=np.array(x[IX_DELTA], dtype=float),
+        omega=out[K.O_OMEGA],
+        e_mag=out[K.O_E_MAG],
+        limited=np.asarray(out[K.O_LIMITED]) > 0.5,
         valid=np.ones(n, dtype=bool),
-        v_f=a["vfr"],
-        p_e=a["p_e"],
+        v_f=out[K.O_V_F],
+        p_e=out[K.O_P_E],
     )
 
 
