@@ -51,6 +51,20 @@ class Recovery:
                     actions += self.reroute(name, "port_status", now, t_loss=None)
         if up:
             actions += self.heal(now)
+            actions += self.reprotect(key, now)
+        return actions
+
+    def reprotect(self, key: frozenset, now: float) -> list:
+        """A link came back: a path whose fast-failover detours were computed while it was down
+        has no detour through it (after a DR around an L2 uplink, the other uplink's failure would
+        go unprotected). Install the same path again, protected with the link (make before break)."""
+        st = self.state
+        actions: list = []
+        for name, active in sorted(st.paths.items()):
+            if key in active.protected_without and name not in self.partitioned:
+                actions += self.routing.install(name, active.sdc, active.path, now)
+                st.counters["reprotected"] += 1
+                st.event(now, "reprotected", wt=name, link=sorted(key), path=active.path)
         return actions
 
     def reroute(self, name: str, cause: str, now: float, t_loss: float | None) -> list:

@@ -66,6 +66,7 @@ class Routing:
                         and len(f.actions) == 1 and isinstance(f.actions[0], fl.Output)):
                     out[k] = fl.FlowAdd(f.dpid, f.priority, f.match, by_dpid[f.dpid], f.cookie)
         active.groups = [(g.dpid, g.group_id) for g in groups]
+        active.protected_without = frozenset(st.down_links)
         st.counters["ff_groups"] += len(groups)
         return groups + out + detours
 

@@ -36,6 +36,7 @@ class ActivePath:
     params: dict = field(default_factory=dict)  # the ViSC parameters of the request (re-sent on re-engage)
     unacknowledged: set = field(default_factory=set)  # switches whose barrier reply is still awaited
     ready_at: float | None = None  # when the last switch of the path acknowledged its flows
+    protected_without: frozenset = frozenset()  # links down when its fast-failover detours were computed
 
 
 class SdnState:

@@ -133,3 +133,34 @@ def test_l2_uplink_failure_teaches_the_l2_switch_the_other_uplink():
     # the SDC's MAC and the controller's virtual MAC (the turbine's AK must follow too)
     assert [packet.Packet(a.data).get_protocol(ethernet.ethernet).src for a in outs] == [
         ctl.config.topology.hosts["sdc1"].mac, ctl.config.controller_vmac]
+
+
+def test_a_path_moved_by_dr_is_protected_again_when_the_failed_link_returns():
+    """A DR around an L2 uplink computes the new path's detours while that uplink is down: the new
+    path's own L2 uplink then has no detour. When the uplink comes back, the path is installed
+    again with it, and a failure of the new uplink is bypassed in the data plane."""
+    desc = describe(topos["paper"](clusters=2, turbines=2))
+    from sdvisc.config import AppConfig
+
+    ctl = Controller(AppConfig.model_validate({"topology": desc, "backup_sdc": None, "fast_failover": True}), 0.0)
+    owfcc = ctl.config.topology.hosts["owfcc"].model_dump()
+    ctl.packet_in(*ingress(ctl, "owfcc"), frame(owfcc, request(wire.Command.VISC_ON, wt="wt1_1")), now=1.0)
+    assert ctl.paths["wt1_1"].path == ["sdc1", "s1", "s3", "l2", "wt1_1"]
+    s3_port = ctl.graph.edges["s3", "l2"]["ports"]["s3"]
+    ctl.port_status(ctl.dpids["s3"], s3_port, up=False, now=2.0)
+    ctl.recovery.reroute("wt1_1", "dr", 2.05, None)
+    moved = ctl.paths["wt1_1"]
+    assert moved.path == ["sdc1", "s1", "s4", "l2", "wt1_1"]
+
+    def bypassed(link) -> bool:
+        flows, groups = switch_tables(ctl.paths["wt1_1"].installed)
+        down = {link_key(*link)}
+        return (walk(ctl, flows, groups, "sdc1", "wt1_1", down)[-1] == "wt1_1"
+                and walk(ctl, flows, groups, "wt1_1", "sdc1", down)[-1] == "sdc1")
+
+    assert not bypassed(("s4", "l2"))  # protected while s3-l2 was down: nothing to detour through
+    actions = ctl.port_status(ctl.dpids["s3"], s3_port, up=True, now=2.3)
+    assert ctl.paths["wt1_1"].path == moved.path and ctl.paths["wt1_1"].cookie != moved.cookie
+    assert any(isinstance(a, fl.GroupAdd) for a in actions) and any(isinstance(a, fl.FlowDelete) for a in actions)
+    assert bypassed(("s4", "l2"))
+    assert [e["wt"] for e in ctl.take_events() if e["type"] == "reprotected"] == ["wt1_1"]
