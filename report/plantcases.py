@@ -1,7 +1,5 @@
-"""The paper's plant set-ups on the offline 50-turbine farm (plant.sim), as tests/unit/
-test_plant_behaviour.py builds them: SDViSCs are the leftmost turbines of cluster 3 (index 20 on)
-at P = 0 (T_m = 0), SC out of service in the SDViSC cases, SCR 7.14. Here the SDViSCs are the
-continuous law inside the plant (``hd_visc``); plant/cosim.py steps the discrete SDC instead."""
+"""What the report reads from the offline farm runs: the farm cases themselves (plant/cases.py,
+shared with the plant's tests), time windows, settling of V_pcc after a weak-grid event, t90."""
 
 from __future__ import annotations
 
@@ -9,55 +7,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from plant.params import PlantParams
-from plant.sim import Plant
-from sdc_unit.params import ViscParams
+from plant.cases import FIRST_VISC, bare_plant, sc_plant, visc_indices, visc_plant
 
-FIRST_VISC = 20  # "the leftmost 4 wind turbines in Cluster 3"
+__all__ = ["FIRST_VISC", "bare_plant", "sc_plant", "visc_indices", "visc_plant"]  # the farm cases, from plant/
+
 FAULT_SLG = "single-phase-to-ground fault at the PCC"
 V_BAND = 0.9  # p.u.: a weak-grid case "holds" (a usable operating point) when V_pcc settles at or above this
 PTP_SETTLED = 0.02  # p.u.: peak-to-peak of V_pcc over the last second below this = settled
-
-
-def visc_indices(n: int) -> np.ndarray:
-    return np.arange(FIRST_VISC, FIRST_VISC + n)
-
-
-def visc_plant(n: int = 4, visc_params: ViscParams | None = None, activate: bool = True, battery: bool = False,
-               **grid) -> Plant:
-    """The farm with ``n`` SDViSC turbines (hd_visc), the SC out of service."""
-    pp = PlantParams(sc_connected=False)
-    for key, value in grid.items():
-        setattr(pp.grid, key, value)
-    pp.visc_params = visc_params or ViscParams()
-    plant = Plant(pp)
-    if n:
-        idx = visc_indices(n)
-        plant.set_power_ref(idx, p=0.0)
-        plant.reinitialise()
-        if battery:
-            plant.set_battery(idx, True)
-        if activate:
-            plant.set_mode(idx, "hd_visc")
-    return plant
-
-
-def sc_plant(h_sc: float | None = None, **grid) -> Plant:
-    """The farm with the 40 MVA synchronous condenser in service (no SDViSC)."""
-    pp = PlantParams(sc_connected=True)
-    if h_sc is not None:
-        pp.condenser.h = h_sc
-    for key, value in grid.items():
-        setattr(pp.grid, key, value)
-    return Plant(pp)
-
-
-def bare_plant(**grid) -> Plant:
-    """The farm with neither SC nor SDViSC."""
-    pp = PlantParams(sc_connected=False)
-    for key, value in grid.items():
-        setattr(pp.grid, key, value)
-    return Plant(pp)
 
 
 def window(r: dict, t0: float, t1: float) -> np.ndarray:

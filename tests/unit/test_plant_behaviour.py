@@ -8,33 +8,12 @@ documented parameters the test asserts what the physics gives and says so.
 import numpy as np
 import pytest
 
+from plant.cases import sc_plant, visc_plant
 from plant.params import PlantParams
 from plant.sim import Plant
 from sdc_unit.params import ViscParams
 
 VISC = np.arange(20, 24)  # the leftmost four turbines of cluster 3
-
-
-def _visc_plant(visc_params=None, activate=True, **grid):
-    pp = PlantParams(sc_connected=False)
-    for k, v in grid.items():
-        setattr(pp.grid, k, v)
-    pp.visc_params = visc_params or ViscParams()
-    p = Plant(pp)
-    p.set_power_ref(VISC, p=0.0)  # a ViSC has T_m = 0: start it from P = 0 (pitch sheds the wind)
-    p.reinitialise()
-    if activate:
-        p.set_mode(VISC, "hd_visc")
-    return p
-
-
-def _sc_plant(h_sc=None, **grid):
-    pp = PlantParams(sc_connected=True)
-    if h_sc is not None:
-        pp.condenser.h = h_sc
-    for k, v in grid.items():
-        setattr(pp.grid, k, v)
-    return Plant(pp)
 
 
 def _t90(t, y, t0):
@@ -45,10 +24,10 @@ def _t90(t, y, t0):
 
 
 def test_a_avr_step_visc_faster_than_sc():
-    p = _sc_plant()
+    p = sc_plant()
     ref0 = p.sc.v_ref
     r_sc = p.run_offline(6.0, events=[(1.0, lambda q: q.set_avr_ref(ref0 + 0.04))], record_every=10)
-    p = _visc_plant()
+    p = visc_plant()
     vp = p.visc_params
     r_v = p.run_offline(3.0, events=[(1.0, lambda q: q.set_visc_params(vp.with_changes(v_ref=vp.v_ref + 0.04)))],
                         record_every=10)
@@ -67,7 +46,7 @@ def test_a_avr_step_visc_faster_than_sc():
 
 def test_b_parallel_droop_sharing():
     mq = np.array([0.03, 0.05, 0.07, 0.10])
-    p = _visc_plant(ViscParams(m_q=mq), activate=False, e_grid=0.955)
+    p = visc_plant(visc_params=ViscParams(m_q=mq), activate=False, e_grid=0.955)
     r = p.run_offline(3.0, events=[(1.0, lambda q: q.set_mode(VISC, "hd_visc"))], record_every=10)
     j0 = np.searchsorted(r["t"], 0.99)
     q = r["q_wt"][-1, VISC]
@@ -89,8 +68,8 @@ def _during(r):
 
 
 def test_c_fault_visc_limited_sc_several_pu():
-    r_sc = _sc_plant().run_offline(2.0, events=FAULT, record_every=5)
-    r_v = _visc_plant().run_offline(2.0, events=FAULT, record_every=5)
+    r_sc = sc_plant().run_offline(2.0, events=FAULT, record_every=5)
+    r_v = visc_plant().run_offline(2.0, events=FAULT, record_every=5)
     f_sc, f_v = _during(r_sc), _during(r_v)
     i_v = r_v["i_wt"][:, VISC]
     print(f"\nSC case: V1_pcc {r_sc['v_pcc'][f_sc].mean():.3f}, phases {np.round(r_sc['v_pcc_ph'][f_sc].mean(0), 3)},"
@@ -111,8 +90,8 @@ def test_d_weak_grid_ordering():
         r = p.run_offline(3.0, events=[(1.0, lambda q: q.set_scr(2.04))], record_every=10)
         return r["v_pcc"][-1], r["p_grid"][-1]
     none = run(Plant(PlantParams(sc_connected=False)))
-    sc = run(_sc_plant())
-    visc = run(_visc_plant())
+    sc = run(sc_plant())
+    visc = run(visc_plant())
     print(f"\nSCR 7.14 -> 2.04 at 1 s, V_pcc / P_grid at 3 s: none {none[0]:.3f}/{none[1]:.3f},"
           f" SC {sc[0]:.3f}/{sc[1]:.3f}, 4 ViSC {visc[0]:.3f}/{visc[1]:.3f}")
     assert none[0] < 0.8, "without support the farm cannot hold its voltage at SCR 2.04"
@@ -125,9 +104,9 @@ def test_e_load_step_battery():
         r = p.run_offline(4.0, events=[(1.0, lambda q: q.load_step(mw))], record_every=10)
         return r["f_pcc_hz"].min() - 50.0, r["v_dc"][:, VISC].min()
     g = dict(h_grid=5.0, s_grid_mva=1000.0)
-    sc = run(_sc_plant(h_sc=4.0, **g), 100.0)
-    v = run(_visc_plant(ViscParams(h=4.0), **g), 100.0)
-    pb = _visc_plant(ViscParams(h=4.0), **g)
+    sc = run(sc_plant(h_sc=4.0, **g), 100.0)
+    v = run(visc_plant(visc_params=ViscParams(h=4.0), **g), 100.0)
+    pb = visc_plant(visc_params=ViscParams(h=4.0), **g)
     pb.set_battery(VISC, True)
     vb = run(pb, 100.0)
     print(f"\n100 MW, H=4: nadir SC {sc[0]:.3f} Hz, ViSC {v[0]:.3f} Hz (v_dc min {v[1]:.3f}),"
@@ -153,9 +132,9 @@ def test_f_load_50mw_larger_visc_inertia_smaller_dip():
     D = 90 (2H/D = 67 ms) makes the ViSC follow the grid frequency within a few cycles.
     """
     g = dict(h_grid=5.0, s_grid_mva=1000.0)
-    sc = _load_step_nadir(_sc_plant(h_sc=3.0, **g), 50.0)
-    v3 = _load_step_nadir(_visc_plant(ViscParams(h=3.0), **g), 50.0)
-    v5 = _load_step_nadir(_visc_plant(ViscParams(h=5.0), **g), 50.0)
+    sc = _load_step_nadir(sc_plant(h_sc=3.0, **g), 50.0)
+    v3 = _load_step_nadir(visc_plant(visc_params=ViscParams(h=3.0), **g), 50.0)
+    v5 = _load_step_nadir(visc_plant(visc_params=ViscParams(h=5.0), **g), 50.0)
     print(f"\n+50 MW: nadir SC H3 {sc[0]:.4f} Hz, ViSC H3 {v3[0]:.4f} Hz, ViSC H5 {v5[0]:.4f} Hz;"
           f" RoCoF SC {sc[1]:.4f}, ViSC H3 {v3[1]:.4f}, H5 {v5[1]:.4f} Hz/s")
     assert v5[0] > v3[0], "larger ViSC inertia: smaller frequency dip"
