@@ -22,6 +22,7 @@ virtual time (figures in simulated ms; the floor stays wall ms). Needs root; ~10
     python benchmarks/recovery.py [--failures 16] [--failover-runs 20] [--controller-failover-runs 5]
                                   [--time-scale K|auto] [--out DIR]
     python benchmarks/recovery.py --all-links [--time-scale K]   # every single-link failure, AK/DR
+    python benchmarks/recovery.py --l2-uplinks 32                 # FF on the L2 uplinks: data plane or DR?
 """
 
 from __future__ import annotations
@@ -118,6 +119,28 @@ def all_links(work: Path, scale: tuple) -> dict:
     return out
 
 
+def l2_uplinks(work: Path, scale: tuple, failures: int) -> dict:
+    """Fast failover on the L2 switch's uplinks only (`paper`): ``failures`` times the uplink of the
+    path's current L2 switch fails for 0.3 s. Per fault the longest interruption and whether a DR
+    was needed (the data plane did not repair it before the hold)."""
+    topo, turbines = TOPOLOGIES["paper"]
+    scenario = failure_scenario("recovery_paper_ff_l2", topo, turbines, MECHANISMS["ff"], failures)
+    for event in scenario["timeline"]:
+        if event["do"] == "path_link_down":
+            event["hop"] = 1  # sdc - s1 - s3|s4 - l2 - wt: the second switch-to-switch link is the uplink
+    summary = run(scenario, work, *scale)
+    drs = [e["t"] for e in summary["events"] if e.get("source") == "sdn_app" and e["type"] == "dr"]
+    faults = []
+    for e in (e for e in summary["events"] if e.get("source") == "timeline" and e["type"] == "link_down"):
+        worst = max((r["interruption_ms"] for r in summary["interruptions"] if r["t_fault"] == e["t_effective"]),
+                    default=None)
+        faults.append({"t": e["t_effective"], "link": f"{e['a']}-{e['b']}", "interruption_ms": worst,
+                       "dr": any(e["t_effective"] <= t < e["t_effective"] + 0.3 for t in drs)})
+    return {"faults": len(faults), "repaired_in_data_plane": sum(not f["dr"] for f in faults),
+            "fell_through_to_dr": sum(f["dr"] for f in faults),
+            "interruptions": aggregate(summary["interruptions"], summary["step_s"]), "per_fault": faults}
+
+
 def failover_scenario(name: str) -> dict:
     return {"name": name, "topology": {"name": "paper", "clusters": 1, "turbines": 1}, "duration_s": 2.5,
             "plant": {"model": "minimal"}, "sdc": {"method": "tustin", "backup": True},
@@ -152,6 +175,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--all-links", action="store_true",
                         help="only the sweep: every single-link failure of paper, farm compact and farm tower, "
                              "one ViSC turbine per cluster, AK/DR; prints the unrecovered count and per-link times")
+    parser.add_argument("--l2-uplinks", type=int, default=0, metavar="N",
+                        help="only this: N fast-failover repairs of the L2 switch's uplinks on paper, per fault "
+                             "whether the data plane repaired it or DR had to")
     parser.add_argument("--soak-runs", type=int, default=0,
                         help="also this many fault-free runs per case of benchmarks/liveness_soak.py (false positives)")
     parser.add_argument("--soak-duration", type=float, default=60.0)
@@ -166,6 +192,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.all_links:
         load_before = os.getloadavg()
         result = {"benchmark": "recovery --all-links", "time_scale": args.time_scale, **all_links(work, scale),
+                  "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_before": load_before,
+                              "load_after": os.getloadavg()}, "wall_s": round(time.time() - started, 1)}
+        print(json.dumps(result, indent=1))
+        return 0
+    if args.l2_uplinks:
+        load_before = os.getloadavg()
+        result = {"benchmark": "recovery --l2-uplinks", "time_scale": args.time_scale,
+                  **l2_uplinks(work, scale, args.l2_uplinks),
                   "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_before": load_before,
                               "load_after": os.getloadavg()}, "wall_s": round(time.time() - started, 1)}
         print(json.dumps(result, indent=1))
