@@ -8,6 +8,10 @@ once per plant step on the plant's measurements, its converter-voltage reference
 plant's ``remote`` mode (``remote_apply = "v_ref"``: the SDC closes the inner current loop too)
 after ``delay_samples`` samples -- 0 = the ideal sampled controller, 1 = one sample of transport
 (the network round trip the testbed measures is ~1–3 ms, i.e. 2–5 samples; see docs/sdc.md).
+``remote_apply = "i_ref"`` applies the SDC's limited current reference through the converter's own
+current loop instead. The plant may step ``plant_steps_per_sample`` times per sample (the SDC's
+output held in between: a sampled controller on a finer plant step). A run records the converter
+trips of the ViSC turbines and stops, padding with NaN, when the plant's values stop being finite.
 
 ``compare`` returns, per quantity, the RMS deviation from the HD run and that RMS relative to the
 range of the HD trace (the 1 % criterion of the issue).
@@ -15,11 +19,13 @@ range of the HD trace (the 1 % criterion of the issue).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 from types import SimpleNamespace
 
 import numpy as np
 
+from plant.params import PlantParams
 from plant.sim import Plant
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
@@ -35,14 +41,34 @@ class FaultCase:
     t_fault_s: float = 1.0
     t_clear_s: float = 1.3
     t_end_s: float = 2.0
-    step_s: float = 0.67e-3
+    step_s: float = 0.67e-3  # the SDC's sampling period Ts
     n_turbines: int = 50
+    plant_steps_per_sample: int = 1  # the plant steps Ts / this (the HD ViSC too)
+
+    @property
+    def plant_step_s(self) -> float:
+        return self.step_s / self.plant_steps_per_sample
+
+    @property
+    def n_steps(self) -> int:
+        """Plant steps of the run."""
+        return int(round(self.t_end_s / self.plant_step_s))
 
 
-def _plant(case: FaultCase):
-    plant = Plant(n_turbines=case.n_turbines, step_s=case.step_s)
-    if plant.params.turbine.remote_apply != "v_ref":
-        raise ValueError("the co-simulation needs TurbineParams.remote_apply == 'v_ref'")
+def samples_for_delay(delay_s: float, ts: float) -> int:
+    """A CTRL delayed by ``delay_s`` is applied at the first sample at or after its arrival: held
+    ceil(delay / Ts) samples (0 for no delay; a part of a nanosecond is not a sample)."""
+    if delay_s < 0:
+        raise ValueError(f"negative delay {delay_s}")
+    return max(0, math.ceil(delay_s / ts - 1e-6))
+
+
+def _plant(case: FaultCase, remote_apply: str = "v_ref"):
+    if remote_apply not in ("v_ref", "i_ref"):
+        raise ValueError(f"remote_apply {remote_apply!r}: 'v_ref' or 'i_ref'")
+    base = PlantParams()
+    params = replace(base, turbine=replace(base.turbine, remote_apply=remote_apply))
+    plant = Plant(params, n_turbines=case.n_turbines, step_s=case.plant_step_s)
     idx = np.asarray(case.visc_turbines)
     plant.set_power_ref(idx, p=0.0)  # ViSC turbines as condensers (no active power), as in the paper
     plant.reinitialise()
@@ -50,10 +76,11 @@ def _plant(case: FaultCase):
 
 
 def _events(plant, k: int, case: FaultCase) -> None:
-    t = k * case.step_s
-    if abs(t - case.t_fault_s) < case.step_s / 2:
+    h = case.plant_step_s
+    t = k * h
+    if abs(t - case.t_fault_s) < h / 2:
         plant.fault(True)
-    if abs(t - case.t_clear_s) < case.step_s / 2:
+    if abs(t - case.t_clear_s) < h / 2:
         plant.fault(False)
 
 
@@ -62,35 +89,51 @@ def run_hd(case: FaultCase = FaultCase()) -> dict[str, np.ndarray]:
     plant, idx = _plant(case)
     plant.set_mode(idx, "hd_visc")
     rows = []
-    for k in range(int(round(case.t_end_s / case.step_s))):
+    for k in range(case.n_steps):
         _events(plant, k, case)
         plant.step()
         out = plant.outputs()
         rows.append((out["v_pcc"], out["q_wt"][idx], out["visc_delta"][idx], out["visc_e"][idx]))
+        if not np.isfinite(rows[-1][0]):
+            break
     return _stack(rows, case)
 
 
 def run_sdc(case: FaultCase = FaultCase(), method: str = "tustin", dtype=np.float64,
-            delay_samples: int = 0) -> dict[str, np.ndarray]:
+            delay_samples: int = 0, remote_apply: str = "v_ref") -> dict[str, np.ndarray]:
     """The software-defined ViSC (``method``, ``dtype``) closing the loop through the plant's remote
-    mode with ``delay_samples`` of transport; same traces as :func:`run_hd`."""
-    plant, idx = _plant(case)
+    mode (``remote_apply``) with ``delay_samples`` of transport (the CTRL held at the turbine);
+    same traces as :func:`run_hd`, plus ``trips`` (per ViSC turbine) and ``trip_t`` (the first trip [s]
+    or NaN)."""
+    plant, idx = _plant(case, remote_apply)
     plant.set_mode(idx, "remote")
     plant.set_remote_fallback(False)
     ctrl = DiscreteVisc(len(idx), ViscParams(), ts=case.step_s, method=method, dtype=dtype)
     ctrl.initialise(np.arange(len(idx)), _meas(plant, idx))
-    queue = [(ctrl.last["v_ref_d"].copy(), ctrl.last["v_ref_q"].copy())] * delay_samples
+    last = ctrl.last
+    refs = tuple(np.array(last[k], dtype=float) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q"))
+    queue = [refs] * delay_samples
+    m = case.plant_steps_per_sample
     rows = []
-    for k in range(int(round(case.t_end_s / case.step_s))):
+    trip_t = math.nan
+    o = None
+    for k in range(case.n_steps):
         _events(plant, k, case)
-        o = ctrl.step(_meas(plant, idx))
-        queue.append((o.v_ref_d, o.v_ref_q))
-        v_d, v_q = queue.pop(0)
-        plant.apply_remote(idx, v_d, v_q)
+        if k % m == 0:
+            o = ctrl.step(_meas(plant, idx))
+            queue.append((o.v_ref_d, o.v_ref_q, o.i_ref_d, o.i_ref_q))
+            plant.apply_remote(idx, *queue.pop(0))
         plant.step()
         out = plant.outputs()
         rows.append((out["v_pcc"], out["q_wt"][idx], o.delta, o.e_mag))
-    return _stack(rows, case)
+        if math.isnan(trip_t) and plant.trips[idx].any():
+            trip_t = (k + 1) * case.plant_step_s
+        if not np.isfinite(rows[-1][0]):
+            break
+    res = _stack(rows, case)
+    res["trips"] = plant.trips[idx].copy()
+    res["trip_t"] = trip_t
+    return res
 
 
 def _meas(plant, idx) -> SimpleNamespace:
@@ -98,18 +141,27 @@ def _meas(plant, idx) -> SimpleNamespace:
 
 
 def _stack(rows, case: FaultCase) -> dict[str, np.ndarray]:
+    """Traces (plant step x turbine); a run stopped early (non-finite values) is padded with NaN."""
     out = {name: np.array([r[j] for r in rows], dtype=float) for j, name in enumerate(QUANTITIES)}
     out["v_pcc"] = out["v_pcc"][:, None]
-    out["delta"] = np.unwrap(out["delta"], axis=0)
-    out["t"] = (np.arange(len(rows)) + 1) * case.step_s
+    finite = np.isfinite(out["delta"]).all(axis=1)
+    n_ok = len(rows) if finite.all() else int(np.argmin(finite))
+    out["delta"][:n_ok] = np.unwrap(out["delta"][:n_ok], axis=0)
+    n = case.n_steps
+    for name in QUANTITIES:
+        if len(rows) < n:
+            out[name] = np.vstack([out[name], np.full((n - len(rows), out[name].shape[1]), np.nan)])
+    out["t"] = (np.arange(n) + 1) * case.plant_step_s
     return out
 
 
 def compare(sdc: dict[str, np.ndarray], hd: dict[str, np.ndarray]) -> dict[str, dict[str, float]]:
-    """Per quantity: worst (over turbines) RMS deviation and RMS / range of the HD trace [%]."""
+    """Per quantity: worst (over turbines) RMS deviation and RMS / range of the HD trace [%]
+    (inf where the SDC's trace is not finite)."""
     res = {}
     for name in QUANTITIES:
-        rms = np.sqrt(np.mean((sdc[name] - hd[name]) ** 2, axis=0))
+        diff = sdc[name] - hd[name]
+        rms = np.where(np.isfinite(diff).all(axis=0), np.sqrt(np.mean(np.nan_to_num(diff) ** 2, axis=0)), np.inf)
         rel = rms / np.ptp(hd[name], axis=0)
         res[name] = {"rms": float(rms.max()), "rms_over_range_pct": float(100 * rel.max()),
                      "hd_range": float(np.ptp(hd[name], axis=0).min())}

@@ -22,11 +22,13 @@ def new(rows: int, cols: int = 1, height_per_row: float = 2.1, width: float = 8.
     return fig, axes
 
 
-def save(ctx: Context, fig, name: str, caption: str) -> Figure:
-    """Write ``name``.png and ``name``.svg into the output directory, the caption under the axes."""
-    fig.text(0.01, 0.005, "\n".join(textwrap.wrap("Paper: " + caption, 120)), fontsize=7.5, va="bottom", ha="left",
+def save(ctx: Context, fig, name: str, caption: str, prefix: str = "Paper: ", top: float = 1.0) -> Figure:
+    """Write ``name``.png and ``name``.svg into the output directory, the caption under the axes
+    (``prefix``: what the caption is, by default the paper's claim; ``top`` < 1 leaves room above the
+    axes, e.g. for a figure legend)."""
+    fig.text(0.01, 0.005, "\n".join(textwrap.wrap(prefix + caption, 120)), fontsize=7.5, va="bottom", ha="left",
              style="italic")
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    fig.tight_layout(rect=(0, 0.06, 1, top))
     png, svg = ctx.out_dir / f"{name}.png", ctx.out_dir / f"{name}.svg"
     fig.savefig(png, dpi=100)
     fig.savefig(svg)

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 VERDICTS = ("yes", "partly", "no")  # what a computed finding can say
+MEASURED = "measured"  # a question the paper does not ask (``PaperClaim.beyond``): a value, no verdict
 NOT_EVALUATED = ("failed", "not run")  # what the report says when no finding exists
 
 
@@ -18,6 +19,8 @@ class PaperClaim:
     id: str  # e.g. "F6.b"
     text: str  # the claim in words
     paper: str  # the paper's value, as printed
+    beyond: bool = False  # a question beyond the paper (issue 9): ``paper`` says what the paper states
+    # about it ("not stated" if nothing), its finding is MEASURED, the page shows it in its own section
 
 
 @dataclass
@@ -25,14 +28,14 @@ class Finding:
     """What an experiment measured for one claim; ``verdict`` is computed, never typed."""
 
     testbed: str  # this testbed's value, formatted from ``measured``
-    verdict: str  # one of VERDICTS
+    verdict: str  # one of VERDICTS, or MEASURED for a claim beyond the paper
     reason: str = ""  # why not (with the evidence) where the verdict is not "yes"; may explain a "yes"
     measured: dict = field(default_factory=dict)  # the raw numbers behind ``testbed``
 
     def __post_init__(self) -> None:
-        if self.verdict not in VERDICTS:
-            raise ValueError(f"verdict {self.verdict!r} is not one of {VERDICTS}")
-        if self.verdict != "yes" and not self.reason.strip():
+        if self.verdict not in (*VERDICTS, MEASURED):
+            raise ValueError(f"verdict {self.verdict!r} is not one of {VERDICTS} (or {MEASURED!r})")
+        if self.verdict not in ("yes", MEASURED) and not self.reason.strip():
             raise ValueError(f"a '{self.verdict}' verdict needs its reason (with the evidence): {self.testbed}")
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from report import machine, page
-from report.registry import VERDICTS, Context, Experiment, Figure, Finding, NotRun
+from report.registry import MEASURED, VERDICTS, Context, Experiment, Figure, Finding, NotRun
 
 
 @dataclass
@@ -38,6 +38,7 @@ def run_one(exp: Experiment, out_dir: Path, quick: bool) -> Outcome:
     t0 = time.perf_counter()
     try:
         findings = exp.run(ctx)
+        _check_kinds(exp, findings)
         outcome = Outcome(exp, "ok", findings=dict(findings))
     except NotRun as exc:
         outcome = Outcome(exp, "not run", error=str(exc))
@@ -49,12 +50,20 @@ def run_one(exp: Experiment, out_dir: Path, quick: bool) -> Outcome:
     return outcome
 
 
+def _check_kinds(exp: Experiment, findings: dict[str, Finding]) -> None:
+    """A claim of the paper gets a verdict; only a question beyond the paper may get MEASURED."""
+    for claim in exp.claims:
+        f = findings.get(claim.id)
+        if f is not None and f.verdict == MEASURED and not claim.beyond:
+            raise ValueError(f"{claim.id} is a claim of the paper: it needs a verdict, not {MEASURED!r}")
+
+
 def claim_rows(outcome: Outcome, quick: bool) -> list[dict]:
     """One row per paper claim of the experiment; a claim without a finding says why."""
     rows = []
     for claim in outcome.experiment.claims:
         row = {"id": claim.id, "experiment": outcome.experiment.id, "claim": claim.text, "paper": claim.paper,
-               "command": command_for(outcome.experiment, quick)}
+               "beyond": claim.beyond, "command": command_for(outcome.experiment, quick)}
         finding = outcome.findings.get(claim.id)
         if finding is not None:
             row.update(testbed=finding.testbed, verdict=finding.verdict, reason=finding.reason,
@@ -69,7 +78,10 @@ def claim_rows(outcome: Outcome, quick: bool) -> list[dict]:
 
 def summarise(rows: list[dict]) -> dict:
     counts = Counter(r["verdict"] for r in rows)
-    return {v: counts.get(v, 0) for v in (*VERDICTS, "failed", "not run")}
+    tally = {v: counts.get(v, 0) for v in (*VERDICTS, "failed", "not run")}
+    if counts.get(MEASURED):  # questions beyond the paper (only when there are some)
+        tally[MEASURED] = counts[MEASURED]
+    return tally
 
 
 def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: list[str],

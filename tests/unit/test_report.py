@@ -177,3 +177,127 @@ def test_the_paper_scenarios_load_and_run_the_full_farm_at_the_auto_time_scale()
         assert sc.name == path.stem and sc.time_scale == "auto" and sc.plant.model == "full", path
     named = {w.split()[-1] for e in EXPERIMENTS if e.kind == "cyber" for w in e.command.split(";")}
     assert named and all((PAPER_SCENARIOS.parent.parent / n).exists() for n in named), named
+
+
+# ------------------------------------------------------- beyond the paper (B1 delay, B2 sampling period)
+def test_crossing_finds_where_a_made_up_error_curve_leaves_the_bound():
+    from report.beyond import ACCEPT_PCT, crossing
+
+    delays = [0, 0.5, 1, 2, 5, 10, 20]
+    err = [0.3, 1.8, 4.9, 5.2, 30.0, 80.0, 90.0]  # leaves 5 % between 1 and 2 ms
+    c = crossing(delays, [e > ACCEPT_PCT for e in err])
+    assert (c.last_good, c.first_bad, c.recovers) == (1.0, 2.0, False)
+    assert c.describe("within 5 %", "not", "ms") == "within 5 % up to 1 ms, not from 2 ms"
+    never_leaves = crossing(delays, [False] * 7)
+    assert never_leaves.first_bad is None and never_leaves.last_good == 20.0
+    assert never_leaves.describe("stable", "unstable", "ms") == "stable over the whole sweep (0 ms to 20 ms)"
+    never_within = crossing(delays, [True] * 7)
+    assert never_within.first_bad == 0.0 and never_within.last_good is None
+    assert never_within.describe("within 5 %", "not", "ms") == "never within 5 % (0 ms to 20 ms)"
+    only_first = crossing(delays, [False] + [True] * 6)
+    assert only_first.describe("stable", "unstable", "ms") == "stable only at 0 ms, unstable from 0.5 ms"
+    # unsorted input, a bound left and re-entered (not monotonic: said so)
+    c = crossing([5, 0.25, 2, 1], [True, False, False, True])
+    assert (c.last_good, c.first_bad, c.recovers, c.swept) == (0.25, 1.0, True, (0.25, 1.0, 2.0, 5.0))
+    assert "holds again" in c.describe("acceptable", "not", "ms")
+    with pytest.raises(ValueError):
+        crossing([0, 1], [True])
+
+
+def test_the_unstable_criterion_trip_divergence_and_sustained_oscillation():
+    from report.beyond import OSC_PTP_PU, OSC_WINDOW_S, instability, worst_pct
+
+    t = np.arange(1, 3001) * 1e-3  # 3 s
+    hd = 1.0 + 0.001 * np.sin(2 * np.pi * 5 * t)
+    assert instability(t, hd.copy(), hd) is None
+    assert instability(t, hd, hd, trips=[0, 1, 0, 0], trip_t=0.182) == "converter trip at 0.182 s"
+    nan = hd.copy()
+    nan[2000:] = np.nan
+    assert instability(t, nan, hd).startswith("non-finite values from 2.001 s")
+    osc = hd + np.where(t > t[-1] - OSC_WINDOW_S, 0.6 * OSC_PTP_PU * np.sin(2 * np.pi * 20 * t), 0.0)
+    assert "oscillates" in instability(t, osc, hd)  # p-p 1.2 x the threshold above the HD's
+    decayed = hd + np.where(t < 2.0, 0.2 * np.sin(2 * np.pi * 20 * t), 0.0)  # large, but over before the window
+    assert instability(t, decayed, hd) is None
+    assert worst_pct({"v": {"rms_over_range_pct": 0.5}, "q": {"rms_over_range_pct": 3.0}}) == 3.0
+    assert worst_pct({"v": {"rms_over_range_pct": 0.5}, "q": {"rms_over_range_pct": math.inf}}) == math.inf
+
+
+def _point(d, worst, own=0.0, unstable=None):
+    return {"delay_ms": d, "worst_pct": worst, "own_worst_pct": own, "unstable": unstable}
+
+
+def test_delay_limits_and_the_low_delay_verdict_on_made_up_sweeps():
+    from report.exp_delay import LOW_DELAY_MS, limits, verdict_low_delay
+
+    v_ref = [_point(0, 0.3), _point(0.5, 1.9, 1.7), _point(1, 100.0, 99.0, "converter trip at 0.182 s"),
+             _point(20, 84.0, 84.0, "converter trip at 0.123 s")]
+    lim = limits(v_ref)
+    assert (lim["hd"].last_good, lim["hd"].first_bad) == (0.5, 1.0)
+    assert lim["unstable"].first_bad == 1.0 and lim["own"].first_bad == 1.0
+    assert verdict_low_delay(lim["hd"])[0] == "yes"
+    # an unstable run is never "within", whatever its error
+    lim = limits([_point(0, 0.3), _point(2, 1.0, 1.0, "|V_pcc| oscillates")])
+    assert lim["hd"].first_bad == 2.0
+    # leaves only past the low-delay bound: partly; never: no; not within even without delay: no
+    late = limits([_point(0, 0.3), _point(LOW_DELAY_MS, 4.0), _point(20, 9.0)])["hd"]
+    assert verdict_low_delay(late)[0] == "partly"
+    never = limits([_point(0, 0.3), _point(20, 4.0)])["hd"]
+    verdict, reason = verdict_low_delay(never)
+    assert verdict == "no" and "whole sweep" in reason
+    i_ref = limits([_point(0, 13.3, 0.0), _point(10, 13.4, 3.0), _point(20, 14.0, 8.0)])
+    assert i_ref["hd"].last_good is None and (i_ref["own"].last_good, i_ref["own"].first_bad) == (10.0, 20.0)
+    verdict, reason = verdict_low_delay(i_ref["hd"])
+    assert verdict == "no" and "even without added delay" in reason
+
+
+def test_acceptable_sampling_period_per_method_and_the_smaller_ts_verdict():
+    from report.exp_sampling import CONVENTIONAL, acceptable_limits, case_for, fault_phase_ms
+    from report.exp_sampling import verdict_needs_smaller_ts as verdict_needs_smaller_ts
+
+    def pts(errors, unstable_from=None):
+        return [{"ts_ms": ts, "worst_pct": e, "unstable": "trip" if unstable_from and ts >= unstable_from else None}
+                for ts, e in zip((0.25, 0.67, 2.0, 5.0), errors)]
+
+    table = {"Tustin": pts([0.2, 0.6, 1.2, 98.0], 5.0), CONVENTIONAL[0]: pts([0.2, 0.6, 1.2, 98.0], 5.0),
+             CONVENTIONAL[1]: pts([0.2, 0.6, 1.2, 98.0], 5.0), CONVENTIONAL[2]: pts([0.3, 0.9, 4.0, 110.0], 2.0)}
+    lims = acceptable_limits(table)
+    assert lims["Tustin"].last_good == 2.0 and lims["Tustin"].first_bad == 5.0
+    assert lims[CONVENTIONAL[2]].last_good == 0.67  # 4 % but tripped at 2 ms: not acceptable
+    verdict, reason = verdict_needs_smaller_ts(lims)
+    assert verdict == "partly" and "forward Euler" in reason
+    table[CONVENTIONAL[0]] = table[CONVENTIONAL[1]] = pts([0.2, 7.0, 9.0, 98.0])
+    assert verdict_needs_smaller_ts(acceptable_limits(table))[0] == "yes"
+    table["Tustin"] = pts([6.0, 7.0, 9.0, 98.0])
+    assert verdict_needs_smaller_ts(acceptable_limits(table))[0] == "no"
+    every = {k: pts([0.1, 0.2, 0.3, 0.4]) for k in table}  # all acceptable everywhere: Tustin above none
+    assert verdict_needs_smaller_ts(acceptable_limits(every))[0] == "no"
+    # the plant step under each Ts, and where the 1.0 s fault falls between samples
+    c = case_for(0.67, 2.0)
+    assert c.plant_steps_per_sample == 3 and c.plant_step_s == pytest.approx(0.67e-3 / 3)
+    assert case_for(0.25, 2.0).plant_steps_per_sample == 1 and case_for(5.0, 2.0).plant_steps_per_sample == 20
+    assert fault_phase_ms(case_for(1.0, 2.0)) == 0.0 and 0 < fault_phase_ms(c) < 0.67
+
+
+def test_a_measured_finding_only_for_a_question_beyond_the_paper(tmp_path):
+    from report.registry import MEASURED
+
+    beyond = (PaperClaim("BX.a", "paper's statement", "qualitative"), PaperClaim("BX.b", "how far", "not stated", beyond=True))
+    exps = [_exp("BX", lambda ctx: {"BX.a": Finding("1 %", "yes"), "BX.b": Finding("up to 2 ms", MEASURED)}, beyond),
+            _exp("BAD", lambda ctx: {"BAD.a": Finding("up to 2 ms", MEASURED)})]
+    data = run_report(exps, tmp_path, quick=False, argv=[], progress=lambda line: None)
+    rows = {r["id"]: r for r in data["claims"]}
+    assert rows["BX.b"]["verdict"] == MEASURED and rows["BX.b"]["beyond"] and not rows["BX.a"]["beyond"]
+    assert rows["BAD.a"]["verdict"] == "failed" and "claim of the paper" in rows["BAD.a"]["reason"]
+    assert data["summary"] == {"yes": 1, "partly": 0, "no": 0, "failed": 1, "not run": 0, MEASURED: 1}
+    html = (tmp_path / "index.html").read_text()
+    claims_part, beyond_part = html.split("<h2>Beyond the paper</h2>")
+    assert "BX.a" in claims_part.split("<h2>Claims</h2>")[1] and "up to 2 ms" in beyond_part.split("<h2>Figures")[0]
+    assert "up to 2 ms" not in claims_part.split("<h2>Claims</h2>")[1]
+
+
+def test_the_sweeps_beyond_the_paper_are_offline_and_run_before_the_network():
+    ids = [e.id for e in EXPERIMENTS]
+    kinds = {e.id: e.kind for e in EXPERIMENTS}
+    assert kinds["B1"] == kinds["B2"] == "offline"
+    assert max(ids.index("B1"), ids.index("B2")) < min(i for i, e in enumerate(EXPERIMENTS) if e.kind == "cyber")
+    assert all(c.beyond or c.paper != "not stated" for e in EXPERIMENTS for c in e.claims)

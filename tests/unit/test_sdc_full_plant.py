@@ -9,6 +9,7 @@ measured value with a margin.
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from plant.cosim import FaultCase, compare, run_hd, run_sdc
@@ -38,3 +39,30 @@ def test_one_sample_of_transport_delay_costs_q_accuracy_but_keeps_the_rest(hd):
     for name in ("v_pcc", "delta", "e_mag"):
         assert res[name]["rms_over_range_pct"] < 1.0, (name, res[name])
     assert res["q"]["rms_over_range_pct"] < 3.0
+
+
+def test_a_delay_is_held_until_the_first_sample_at_or_after_it():
+    from plant.cosim import samples_for_delay
+
+    ts = 0.67e-3
+    assert [samples_for_delay(d * 1e-3, ts) for d in (0, 0.5, 0.67, 1, 2, 5, 10, 20)] == [0, 1, 1, 2, 3, 8, 15, 30]
+    with pytest.raises(ValueError):
+        samples_for_delay(-1e-3, ts)
+
+
+SHORT = FaultCase(t_fault_s=0.1, t_clear_s=0.2, t_end_s=0.35)
+
+
+def test_cosim_i_ref_sampled_on_a_finer_plant_step_and_a_trip_recorded():
+    # i_ref runs and follows the HD ViSC in kind; the SDC sampled every 3rd plant step (outputs held)
+    fine = FaultCase(t_fault_s=0.1, t_clear_s=0.2, t_end_s=0.35, plant_steps_per_sample=3)
+    hd = run_hd(fine)
+    assert len(hd["t"]) == fine.n_steps == 1567 and hd["t"][0] == pytest.approx(0.67e-3 / 3)
+    r = run_sdc(fine, remote_apply="i_ref")
+    assert r["trips"].sum() == 0 and compare(r, hd)["v_pcc"]["rms_over_range_pct"] < 2.0
+    assert np.all(r["delta"][0:3, 0] == r["delta"][0, 0])  # the SDC's δ held over the 3 plant steps of a sample
+    # v_ref with 2 samples of delay: the inner current loop through the delay trips the converters
+    tripped = run_sdc(SHORT, delay_samples=2)
+    assert tripped["trips"].sum() > 0 and 0 < tripped["trip_t"] < SHORT.t_end_s
+    with pytest.raises(ValueError, match="remote_apply"):
+        run_sdc(SHORT, remote_apply="p_ref")
