@@ -17,11 +17,11 @@
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
 import numpy as np
 
+from sdvisc.latest_writer import LatestWriter
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
 STATUS_EVERY_S = 0.05  # simulated seconds between two plant_status.json
@@ -37,6 +37,8 @@ class LivePublisher:
         self.events = events  # the service's list of applied events (plant_stats.json)
         self._file = (open(self.out_dir / "plant_events.jsonl", "a", buffering=1)  # noqa: SIM115 - closed in close()
                       if self.out_dir is not None else None)
+        # written off the paced loop: a busy disk must not make steps late
+        self._status = LatestWriter(self.out_dir / "plant_status.json") if self.out_dir is not None else None
         self.t0 = 0.0
 
     def event(self, record: dict) -> None:
@@ -73,8 +75,8 @@ class LivePublisher:
 
     # ------------------------------------------------------------------ status
     def write_status(self, service, now: float) -> None:
-        """Replace ``plant_status.json`` (compact JSON, one write and a rename: a reader never sees
-        half a file). Turbines that never sent or received a packet are left out (a 50-turbine
+        """Replace ``plant_status.json`` (compact JSON, one write and a rename in a background thread:
+        a reader never sees half a file, the paced loop never waits for the disk). Turbines that never sent or received a packet are left out (a 50-turbine
         farm with a few ViSC turbines stays small)."""
         endpoints = service.endpoints
         streaming = [ep for ep in endpoints if ep.streaming]
@@ -99,16 +101,14 @@ class LivePublisher:
                   "meas_tx": sum(ep.counts["meas_tx"] for ep in endpoints),
                   "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in endpoints),
                   "streaming": [ep.name for ep in streaming], "turbines": turbines}
-        path = self.out_dir / "plant_status.json"
-        tmp = f"{path}.{os.getpid()}.tmp"  # only this thread writes it
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
-        try:
-            os.write(fd, json.dumps(status, separators=(",", ":")).encode())
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
+        if self._status is not None:
+            self._status.put(json.dumps(status, separators=(",", ":")).encode())
 
     def close(self) -> None:
+        """Write the last status and close the event stream."""
+        if self._status is not None:
+            self._status.close()
+            self._status = None
         if self._file is not None:
             self._file.close()
             self._file = None

@@ -24,7 +24,7 @@ from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdn_app.redundancy import RoleState
 from sdvisc.config import AppConfig, load_config
-from sdvisc.jsonlines import write_json_atomic
+from sdvisc.latest_writer import LatestWriter
 
 CONFIG_ENV = "SDVISC_SDN_CONFIG"
 ROLE_ENV = "SDVISC_SDN_ROLE"  # master | slave | equal (default: equal, a single controller)
@@ -64,6 +64,8 @@ class SdviscApp(app_manager.OSKenApp):
         if self.state_dir:
             self.state_dir.mkdir(parents=True, exist_ok=True)
             self._events_file = open(self.state_dir / f"{self.prefix}_events.jsonl", "a", buffering=1)  # noqa: SIM115
+            # sdn_state.json is written off the event loop: a busy disk must not hold up packet-ins
+            self._state_writer = LatestWriter(self.state_dir / f"{self.prefix}_state.json")
         else:
             self._events_file = None
         self._last_publish = 0.0
@@ -98,13 +100,13 @@ class SdviscApp(app_manager.OSKenApp):
                 self._events_file.write(json.dumps(event) + "\n")
 
     def _publish(self) -> None:
-        if not self.state_dir:
+        if not self.state_dir or self._state_writer is None:  # (None: stopped, the last state written)
             return
         state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
                  "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
                  "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
                  "t_wall": self.clock.now()}
-        write_json_atomic(self.state_dir / f"{self.prefix}_state.json", state)
+        self._state_writer.put(json.dumps(state, indent=1, sort_keys=True).encode())
 
     def _peer(self, now: float) -> None:
         """Peer heartbeat: the master announces itself; a slave takes over when it goes silent."""
@@ -160,7 +162,10 @@ class SdviscApp(app_manager.OSKenApp):
         try:
             self._flush_events()
             self._publish()
-            if self.state_dir:  # a write interrupted by the stop signal may have left its temporary file
+            if self.state_dir:  # the last state written; a write interrupted by a signal may have left its temporary file
+                if self._state_writer is not None:
+                    self._state_writer.close()
+                    self._state_writer = None
                 for stray in self.state_dir.glob(f"{self.prefix}_state.json.{os.getpid()}.*.tmp"):
                     stray.unlink(missing_ok=True)
             if self._events_file:

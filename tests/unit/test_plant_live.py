@@ -81,6 +81,7 @@ def test_status_has_v_q_f_and_delay_of_streaming_turbines_only(tmp_path):
     live = LivePublisher(tmp_path, [])
     live.t0 = T0
     live.write_status(Service, T0 + 1.5)
+    live.close()  # the status is written in the background; close writes the last one
     status = json.loads((tmp_path / "plant_status.json").read_text())
     assert status["t_sim"] == 1.5 and status["n_steps"] is None and status["streaming"] == ["wt1_1"]
     row = status["turbines"]["wt1_1"]
