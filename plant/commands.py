@@ -151,6 +151,18 @@ class Commands:
         self.sc.v_ref = float(v)
         self._cache = None
 
+    def get_avr_ref(self) -> float:
+        """The AVR voltage reference now, p.u. (a relative ``set``: plant/settable.py)."""
+        return float(self.sc.v_ref)
+
+    def get_grid_emf(self) -> float:
+        """The grid source EMF magnitude now, p.u."""
+        return float(self.params.grid.e_grid)
+
+    def get_grid_voltage(self) -> float:
+        """Alias of get_grid_emf (interface shared with plant.minimal)."""
+        return self.get_grid_emf()
+
     def set_grid_emf(self, e: float) -> None:
         """Grid source EMF magnitude, p.u. (a grid-side voltage step)."""
         self.params.grid.e_grid = float(e)

@@ -70,6 +70,9 @@ class MinimalPlant:
     def set_grid_voltage(self, magnitude: float) -> None:
         self.v_grid = complex(magnitude)
 
+    def get_grid_voltage(self) -> float:
+        return float(abs(self.v_grid))
+
     def load_step(self, mw: float) -> None:
         """No load model on an infinite bus; accepted so scenarios run unchanged."""
 

@@ -30,6 +30,7 @@ import numpy as np
 from plant import endpoint_rx
 from plant.live import STATUS_EVERY_S, LivePublisher
 from plant.recorder import Recorder
+from plant.service_model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
 from sdvisc import wire
 from sdvisc.config import ConfigError, PlantConfig, load_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
@@ -79,53 +80,6 @@ class Endpoint:
     live_delay: list = field(default_factory=lambda: [0.0, 0])  # sum (ms) and count since the last status
 
 
-FARM_TURBINES_PER_CLUSTER = 10
-
-
-def build_model(cfg: PlantConfig, names: list[str]):
-    """The plant model and the model index of each turbine endpoint (by host name).
-
-    ``minimal``: one model turbine per turbine host. ``full``: the 50-turbine farm of
-    :mod:`plant.sim`; host ``wt<c>_<n>`` is farm turbine ``(c-1)*10 + n-1``, the other farm
-    turbines run without a network endpoint (grid following).
-    """
-    kind = cfg.model
-    step_s = cfg.step_s
-    if kind == "minimal":
-        from plant.minimal import MinimalPlant
-
-        model = MinimalPlant(len(names), step_s, remote_loss_fallback_s=cfg.remote_loss_fallback_s,
-                             remote_apply=cfg.remote_apply)
-        return model, list(range(len(names)))
-    if kind == "full":
-        from dataclasses import replace
-
-        from plant.jitstep import warm_up
-        from plant.params import PlantParams
-        from plant.sim import Plant
-
-        base = PlantParams()
-        turbine = replace(base.turbine, remote_apply=cfg.remote_apply,
-                          remote_loss_fallback_s=cfg.remote_loss_fallback_s)
-        params = replace(base, turbine=turbine)
-        n_farm = params.n_clusters * FARM_TURBINES_PER_CLUSTER
-        indices = []
-        for name in names:
-            c, n = wire.parse_turbine(name)
-            index = (c - 1) * FARM_TURBINES_PER_CLUSTER + (n - 1)
-            if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm:
-                raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
-            indices.append(index)
-        warm_up(params, step_s)  # kernels loaded before t = 0, not at the first CTRL packet
-        plant = Plant(params, n_turbines=n_farm, step_s=step_s)
-        for scr in [None, *cfg.prepare_scr]:  # the states the run enters: no LU in a paced step
-            plant.net.prepare(fault_on=True, **({} if scr is None else {"scr": scr}))
-            if scr is not None:
-                plant.net.prepare(scr=scr)
-        return plant, indices
-    raise ValueError(f"unknown plant model {kind!r}")
-
-
 class PlantService:
     """The paced loop; see the module docstring."""
 
@@ -153,8 +107,10 @@ class PlantService:
         self.max_lateness_s = 0.0
         self.k = 0
         self.events_applied: list[dict] = []
-        self.recorder = Recorder(self.out_dir / "timeseries.csv",
-                                 [ep for ep in self.endpoints if ep.name in cfg.record], every=cfg.record_every)
+        self.batteries = {name: farm_index(name, self.model.n) for name in cfg.batteries}
+        self.soc_start = {name: float(self.model.tb.batt.soc[i]) for name, i in self.batteries.items()}
+        self.recorder = Recorder(self.out_dir / "timeseries.csv", [ep for ep in self.endpoints if ep.name in cfg.record],
+                                 every=cfg.record_every, batteries=self.batteries)
         self.poller = select.epoll()
         for fd in self.by_fd:
             self.poller.register(fd, select.EPOLLIN)
@@ -261,10 +217,7 @@ class PlantService:
         elif kind == "scr":
             m.set_scr(float(event["value"]))
         elif kind == "set":
-            setter = getattr(m, f"set_{event['param']}", None)
-            if setter is None:
-                raise ValueError(f"plant has no settable parameter {event['param']!r}")
-            setter(event["value"])
+            event = {**event, **apply_set(m, event)}  # a delta: the value it came to, recorded
         else:
             raise ValueError(f"plant cannot apply event {kind!r}")
         self.live.event({"t": self.k * self.step_s, **event})
@@ -360,6 +313,8 @@ class PlantService:
                           if getattr(self.model, "fallbacks", None) is not None and self.model.fallbacks[ep.index]},
             "max_lateness_ms": self.max_lateness_s * 1e3,
             "stalls": [{"t_sim": t, "worst_ms": ms, "steps": last - round(t / self.step_s) + 1} for t, ms, last in self.stalls],
+            "frequency_hz": self.recorder.extremes()["f_pcc_hz"],
+            "batteries": self._battery_summary(),
             "rx_wire": self.rx_stats.as_dict(),
             "rx_rejected": endpoint_rx.rejections_by_reason(ep.counts for ep in self.endpoints),
             "events": self.events_applied,
@@ -374,6 +329,21 @@ class PlantService:
                 for ep in self.endpoints
             },
         }
+
+    def _battery_summary(self) -> dict:
+        """Per battery turbine: SOC at t = 0 and now, the smallest recorded, the change, the energy
+        delivered to the DC link (MWh) and the largest recorded power (p.u.)."""
+        if not self.batteries:
+            return {}
+        batt, rec = self.model.tb.batt, self.recorder.extremes()["batteries"]
+        energy = batt.energy_mwh()
+        out = {}
+        for name, i in self.batteries.items():
+            soc = float(batt.soc[i])
+            out[name] = {"soc_start": round(self.soc_start[name], 8), "soc_end": round(soc, 8),
+                         "soc_change": round(soc - self.soc_start[name], 8), "soc_min": rec[name]["soc_min"],
+                         "energy_mwh": round(float(energy[i]), 6), "p_batt_max_pu": rec[name]["p_batt_max"]}
+        return out
 
     def close(self) -> None:
         self.recorder.close()

@@ -1,7 +1,8 @@
 """What a scenario may ask of each plant model, read from the model classes themselves.
 
 The plant service (plant/service.py ``_apply_event``) applies a timeline ``set`` action as
-``getattr(model, f"set_{param}")(value)`` with one number, and ``load_step``/``fault``/``scr`` by
+``getattr(model, f"set_{param}")(value)`` with one number (or, with a ``delta``,
+``set_<param>(get_<param>() + delta)``), and ``load_step``/``fault``/``scr`` by
 calling ``load_step``/``fault``/``set_scr``. ``sdvisc check`` uses these helpers to reject, before a
 run, what the chosen model could not apply, so the lists cannot drift from the models.
 """
@@ -43,6 +44,20 @@ def settable_params(cls: type) -> list[str]:
     (float, int or bool) and nothing else required: what a timeline ``set`` action can change."""
     return sorted(name[4:] for name, func in inspect.getmembers(cls, inspect.isfunction)
                   if name.startswith("set_") and _takes_one_number(func))
+
+
+def relative_params(cls: type) -> list[str]:
+    """Sorted settable ``<param>`` names that ``cls`` can also read back with a ``get_<param>()``
+    method taking no argument: what a timeline ``set`` can change by a ``delta``."""
+    def readable(name: str) -> bool:
+        func = getattr(cls, f"get_{name}", None)
+        if not inspect.isfunction(func):
+            return False
+        rest = list(inspect.signature(func).parameters.values())[1:]
+        return all(p.default is not p.empty or p.kind in (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+                   for p in rest)
+
+    return [name for name in settable_params(cls) if readable(name)]
 
 
 def supported_actions(cls: type) -> list[str]:

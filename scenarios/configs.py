@@ -8,7 +8,15 @@ from __future__ import annotations
 
 from scenarios.schema import Scenario
 from sdvisc import wire
-from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, AppConfig, OwfccConfig, PlantConfig, SdcConfig
+from sdvisc.config import (
+    CONTROLLER_VIP,
+    CONTROLLER_VMAC,
+    AppConfig,
+    GridSourceSettings,
+    OwfccConfig,
+    PlantConfig,
+    SdcConfig,
+)
 
 START_MARGIN_S = 0.5  # t = 0 this long after the plant's model is ready
 
@@ -52,4 +60,7 @@ def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | N
                        record_every=p.record_every, ak_period_s=p.ak_period_s, ak_window_s=p.ak_window_s,
                        remote_loss_fallback_s=p.remote_loss_fallback_s, remote_apply=p.remote_apply,
                        report_loss_after_s=sc.sdn.dr_hold_s, start_margin_s=START_MARGIN_S,
-                       prepare_scr=sorted({e.value for e in sc.timeline if e.do == "scr"}))
+                       prepare_scr=sorted({e.value for e in sc.timeline if e.do == "scr"}),
+                       grid=GridSourceSettings(**(p.grid.grid_params() if p.grid else {})),
+                       batteries=p.batteries.turbines if p.batteries else [],
+                       battery_soc_init=p.batteries.soc_init if p.batteries else None, p_star=p.p_star or {})

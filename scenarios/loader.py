@@ -15,7 +15,7 @@ import yaml
 from pydantic import TypeAdapter, ValidationError
 
 from plant.settable import ACTIONS as PLANT_ACTIONS
-from plant.settable import model_class, settable_params, supported_actions
+from plant.settable import model_class, relative_params, settable_params, supported_actions
 from scenarios.schema import EVENT_KINDS, Event, Scenario, TopologySpec
 
 _EVENT = TypeAdapter(Event)
@@ -108,6 +108,9 @@ class _Parts:
     def of_scenario(cls, sc: Scenario) -> _Parts:
         turbines = [(("sdn", "visc_disabled", j), n) for j, n in enumerate(sc.sdn.visc_disabled)]
         turbines += [(("plant", "record", j), n) for j, n in enumerate(sc.plant.record or [])]
+        if sc.plant.batteries is not None:
+            turbines += [(("plant", "batteries", "turbines", j), n) for j, n in enumerate(sc.plant.batteries.turbines)]
+        turbines += [(("plant", "p_star", n), n) for n in sc.plant.p_star or {}]
         links = [(("links", j), lk.a, lk.b) for j, lk in enumerate(sc.links)]
         if isinstance(sc.impairable, list):
             links += [(("impairable", j), lk.a, lk.b) for j, lk in enumerate(sc.impairable)]
@@ -138,6 +141,12 @@ class _Parts:
             if isinstance(names, list):
                 turbines += [((section, key, j), n) for j, n in enumerate(names)
                              if isinstance(n, str) and ok(section, key, j)]
+        plant = data.get("plant") if isinstance(data.get("plant"), dict) else {}
+        batteries = plant.get("batteries") if isinstance(plant.get("batteries"), dict) else {}
+        if isinstance(batteries.get("turbines"), list) and ok("plant", "batteries"):
+            turbines += [(("plant", "batteries", "turbines", j), n) for j, n in enumerate(batteries["turbines"])]
+        if isinstance(plant.get("p_star"), dict) and ok("plant", "p_star"):
+            turbines += [(("plant", "p_star", n), n) for n in plant["p_star"]]
         links = []
         for section in ("links", "impairable"):
             entries = data.get(section)
@@ -206,6 +215,7 @@ class _Parts:
         """``set`` parameters and plant actions must be ones the ``plant.model`` class can apply."""
         cls = model_class(self.model)
         settable = settable_params(cls)
+        relative = relative_params(cls)
         supported = supported_actions(cls)
         problems = []
         for i, event in self.events:
@@ -213,6 +223,10 @@ class _Parts:
                 problems.append((("timeline", i, "param"),
                                  f"plant model {self.model} has no settable parameter {event.param!r} "
                                  f"(settable: {', '.join(settable) or 'none'})"))
+            elif event.do == "set" and event.delta is not None and event.param not in relative:
+                problems.append((("timeline", i, "delta"),
+                                 f"plant model {self.model} cannot change {event.param!r} by a delta (it cannot "
+                                 f"read it back); give value, or a delta of: {', '.join(relative) or 'none'}"))
             elif event.do in PLANT_ACTIONS and event.do not in supported:
                 problems.append((("timeline", i, "do"), f"plant model {self.model} cannot apply {event.do}"))
         return problems

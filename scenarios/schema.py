@@ -15,8 +15,9 @@ from __future__ import annotations
 
 from typing import Annotated, Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
+from plant.params import BatteryParams, GridParams
 from sdvisc.config import GATHER_HELP
 
 TURBINE_PATTERN = r"^wt\d+_\d+$"
@@ -45,6 +46,47 @@ class TopologySpec(Strict):
         return p
 
 
+class GridSourceSpec(Strict):
+    """The grid source behind the PCC's Thevenin impedance (``plant.params.GridParams``; full model
+    only). Each key left out keeps the plant's default."""
+
+    h: float | None = Field(None, ge=0, le=30, description=(
+        f"inertia constant of the grid source on s_mva, s (GridParams.h_grid); 0 = an ideal source whose "
+        f"frequency never moves (default {GridParams.h_grid:g})"))
+    s_mva: float | None = Field(None, gt=0, le=1e6, description=(
+        f"rating of the grid source, MVA (GridParams.s_grid_mva; default {GridParams.s_grid_mva:g} = SCR x 500 MVA)"))
+    d: float | None = Field(None, ge=0, le=100, description=(
+        f"load damping of the grid source, p.u. power / p.u. speed on s_mva (default {GridParams.d_grid:g})"))
+    r_gov: float | None = Field(None, gt=0, le=1, description=(
+        f"governor droop, p.u. speed / p.u. power (default {GridParams.r_gov:g}); only with h > 0"))
+    t_gov_s: float | None = Field(None, gt=0, le=100, description=(
+        f"governor/turbine time constant, s (default {GridParams.t_gov:g})"))
+
+    def grid_params(self) -> dict[str, float]:
+        """The ``GridParams`` fields these keys set (only those given)."""
+        names = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov"}
+        return {names[k]: v for k, v in self.model_dump().items() if v is not None}
+
+
+class BatterySpec(Strict):
+    """Li-ion batteries on turbines' DC links from t = 0 (``plant/battery.py``, ``Plant.set_battery``;
+    full model only): the paper's 2000 Ah battery of F5."""
+
+    turbines: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(
+        min_length=1, description="turbines whose DC link gets a battery")
+    soc_init: float | None = Field(None, ge=BatteryParams.soc_min, le=BatteryParams.soc_max, description=(
+        f"initial state of charge, fraction {BatteryParams.soc_min:g}-{BatteryParams.soc_max:g} (default "
+        f"{BatteryParams.soc_init:g}); the pack floats on the DC link at it (BatteryParams.soc_init)"))
+
+    @field_validator("turbines")
+    @classmethod
+    def _once_each(cls, names: list[str]) -> list[str]:
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(f"turbine listed more than once: {', '.join(twice)}")
+        return names
+
+
 class PlantSpec(Strict):
     model: Literal["minimal", "full"] = Field("minimal", description="minimal: infinite bus; full: the 500 MW farm")
     record: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] | None = Field(
@@ -56,6 +98,19 @@ class PlantSpec(Strict):
     remote_apply: Literal["i_ref", "v_ref"] = Field(
         "i_ref", description="what a remote turbine applies: the SDC's current reference (local current loop) "
                              "or its converter voltage reference (inner loop closed over the network)")
+    grid: GridSourceSpec | None = Field(None, description="the grid source's inertia and governor (full model)")
+    batteries: BatterySpec | None = Field(None, description="batteries on turbines' DC links (full model)")
+    p_star: dict[Annotated[str, Field(pattern=TURBINE_PATTERN)], Annotated[float, Field(ge=0, le=1.1)]] | None = Field(
+        None, description="grid-following active-power reference P* of these turbines from t = 0, p.u. of the "
+                          "turbine rating (the steady state is computed for it; the others follow the MPPT curve: "
+                          "1 p.u. at 12 m/s); 0 for a turbine that will run as a ViSC (T_m = 0), full model")
+
+    @field_validator("grid", "batteries", "p_star")
+    @classmethod
+    def _full_model_only(cls, value, info: ValidationInfo):
+        if value is not None and info.data.get("model", "minimal") != "full":
+            raise ValueError(f"{info.field_name} needs plant.model: full (the minimal model is an infinite bus)")
+        return value
 
 
 class SdcSpec(Strict):
@@ -220,10 +275,21 @@ class ClearImpairments(_Event):
 
 
 class SetParam(_Event):
+    """Set a plant parameter to ``value``, or change it by ``delta`` from what it is at that moment
+    (a parameter with a ``get_<param>`` method too, e.g. ``avr_ref``: plant/settable.py)."""
+
     do: Literal["set"]
     param: str = Field(description="a plant parameter with a one-number set_<param> method of plant.model, e.g. "
                                    "grid_voltage, avr_ref (full); see plant/settable.py")
-    value: float
+    value: float | None = Field(None, description="the new value (the parameter's unit, e.g. p.u.)")
+    delta: float | None = Field(None, description="added to the parameter's present value (same unit), e.g. "
+                                                  "avr_ref +0.04 p.u.")
+
+    @model_validator(mode="after")
+    def _value_or_delta(self):
+        if (self.value is None) == (self.delta is None):
+            raise ValueError("set needs exactly one of value (absolute) and delta (relative)")
+        return self
 
 
 class LoadStep(_Event):

@@ -263,6 +263,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "max_lateness_ms": plant.get("max_lateness_ms"),
         "converter_trips": plant.get("converter_trips", {}),
         "fallbacks": plant.get("fallbacks", {}),
+        "frequency_hz": plant.get("frequency_hz", {}),
+        "batteries": plant.get("batteries", {}),
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,

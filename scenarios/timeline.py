@@ -11,7 +11,8 @@ import threading
 from sdvisc import wire
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC
 
-PLANT_COMMANDS = {"set": lambda e: {"type": "set", "param": e.param, "value": e.value},
+PLANT_COMMANDS = {"set": lambda e: {"type": "set", "param": e.param,
+                                     **({"value": e.value} if e.delta is None else {"delta": e.delta})},
                   "load_step": lambda e: {"type": "load_step", "mw": e.mw},
                   "scr": lambda e: {"type": "scr", "value": e.value}}
 

@@ -85,6 +85,19 @@ class TurbineEndpoint(_Config):
     pid: int | None = Field(None, description="a process in the turbine's network namespace (None: this one)")
 
 
+class GridSourceSettings(_Config):
+    """The full model's grid source (``plant.params.GridParams`` fields; None: the plant's default)."""
+
+    h_grid: float | None = Field(None, ge=0, le=30, description="grid source inertia on s_grid_mva, s (0: ideal)")
+    s_grid_mva: float | None = Field(None, gt=0, le=1e6, description="grid source rating, MVA")
+    d_grid: float | None = Field(None, ge=0, le=100, description="load damping, p.u. power / p.u. speed")
+    r_gov: float | None = Field(None, gt=0, le=1, description="governor droop, p.u. speed / p.u. power")
+    t_gov: float | None = Field(None, gt=0, le=100, description="governor time constant, s")
+
+    def given(self) -> dict[str, float]:
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
 class PlantConfig(ServiceBase):
     """``python -m plant.service``."""
 
@@ -104,6 +117,12 @@ class PlantConfig(ServiceBase):
     start_margin_s: float | None = Field(None, ge=0, description="t = 0 this long after the model is ready")
     prepare_scr: list[float] = Field(default_factory=list, description=(
         "SCR values the timeline will set: the full model factorises those network states before t = 0"))
+    grid: GridSourceSettings = Field(default_factory=GridSourceSettings, description="full model: the grid source")
+    batteries: list[str] = Field(default_factory=list, description="full model: turbines with a battery on the "
+                                 "DC link from t = 0 (plant/battery.py)")
+    battery_soc_init: float | None = Field(None, ge=0, le=1, description="their initial SOC (None: BatteryParams)")
+    p_star: dict[str, float] = Field(default_factory=dict, description="full model: grid-following P* (turbine "
+                                     "p.u.) of these turbines from t = 0, the steady state computed for it")
 
 
 class OwfccConfig(ProcessBase):

@@ -62,3 +62,63 @@ def test_a_bad_config_file_names_every_problem(tmp_path):
 def test_non_finite_numbers_are_refused():
     with pytest.raises(ConfigError):
         parse_config(SdcConfig, {"step_s": float("nan"), "out_dir": "."})
+
+
+def test_grid_batteries_and_p_star_reach_the_plant_model(tmp_path):
+    """plant.grid / plant.batteries / plant.p_star -> PlantConfig -> plant.service.build_model (no network)."""
+    import numpy as np
+
+    from plant.service import build_model
+
+    path = tmp_path / "s.yaml"
+    path.write_text("name: t\nduration_s: 3\ntopology: {name: farm, clusters: 5, turbines: 10}\n"
+                    "plant:\n  model: full\n  grid: {h: 4.0, s_mva: 1000, d: 2}\n"
+                    "  batteries: {turbines: [wt3_1, wt3_2], soc_init: 0.7}\n  p_star: {wt3_1: 0.0, wt3_2: 0.25}\n")
+    sc = load_scenario(path)
+    desc = describe(topos[sc.topology.name](**sc.topology.params()))
+    pids = {n: None for n, h in desc["hosts"].items() if h["role"] == "turbine"}
+    cfg = load_config(PlantConfig, write_config(configs.plant_config(sc, desc, str(tmp_path), pids),
+                                                tmp_path / "plant.json"))
+    assert cfg.grid.given() == {"h_grid": 4.0, "s_grid_mva": 1000.0, "d_grid": 2.0}
+    assert cfg.batteries == ["wt3_1", "wt3_2"] and cfg.battery_soc_init == 0.7
+    assert cfg.p_star == {"wt3_1": 0.0, "wt3_2": 0.25}
+    plant, indices = build_model(cfg, ["wt3_1", "wt1_1"])
+    assert indices == [20, 0]
+    g = plant.params.grid
+    assert (g.h_grid, g.s_grid_mva, g.d_grid, g.r_gov) == (4.0, 1000.0, 2.0, 0.05)  # r_gov not given: default
+    assert list(np.nonzero(plant.tb.battery)[0]) == [20, 21]
+    assert plant.params.battery.soc_init == 0.7 and np.allclose(plant.tb.batt.soc, 0.7)
+    out = plant.outputs()
+    assert abs(out["p_wt"][20]) < 1e-6 and out["p_wt"][21] == pytest.approx(0.25, abs=1e-6)
+    assert out["p_wt"][0] > 0.9  # the others on the MPPT curve
+    assert np.allclose(out["p_batt"], 0.0, atol=1e-9)  # the packs float on the DC link at t = 0
+    plant.set_mode([20, 21], "hd_visc")  # the battery backs a ViSC's DC link (a grid-following MSC holds it)
+    plant.load_step(100.0)
+    for _ in range(300):
+        plant.step()
+    out = plant.outputs()
+    assert out["f_pcc_hz"] < 50.0  # a finite-inertia source: the frequency moves
+    assert out["soc"][20] < 0.7 and out["soc"][0] == 0.7  # the battery gave energy, the others none
+    # a minimal plant refuses them (the schema does too, at the file)
+    with pytest.raises(ValueError, match="full plant model"):
+        build_model(cfg.model_copy(update={"model": "minimal"}), ["wt3_1"])
+
+
+def test_recorder_writes_battery_columns_and_keeps_extremes(tmp_path):
+    from plant.cases import visc_plant
+    from plant.recorder import Recorder
+
+    plant = visc_plant(4, battery=True, h_grid=5.0, s_grid_mva=1000.0)
+    rec = Recorder(tmp_path / "ts.csv", [], every=5, batteries={"wt3_1": 20})
+    plant.load_step(100.0)
+    for k in range(1, 301):
+        plant.step()
+        rec.maybe_record(k, plant)
+    rec.close()
+    lines = (tmp_path / "ts.csv").read_text().splitlines()
+    assert lines[0] == "t,v_pcc,f_pcc_hz,wt3_1.soc,wt3_1.p_batt" and len(lines) == 61
+    ext = rec.extremes()
+    assert ext["f_pcc_hz"]["min"] < 50.0 < ext["f_pcc_hz"]["max"] + 0.1
+    soc_min, p_max = ext["batteries"]["wt3_1"]["soc_min"], ext["batteries"]["wt3_1"]["p_batt_max"]
+    assert soc_min < 0.5 and p_max > 0.0
+    assert float(lines[-1].split(",")[3]) == pytest.approx(soc_min, abs=1e-8)

@@ -190,3 +190,74 @@ def test_check_command_exit_codes(tmp_path):
     res = subprocess.run([sys.executable, "-m", "scenarios.cli", "check", str(bad)], capture_output=True, text=True)
     assert res.returncode == 1
     assert f"{bad}:4: sdn.dr_hold: unknown key" in res.stderr
+
+
+# ---------------------------------------------------------------- the grid source, batteries, P*, relative set
+FULL = BASE + "plant:\n  model: full\n"
+
+
+def test_grid_battery_p_star_and_delta_keys(tmp_path):
+    sc = load_scenario(write(tmp_path, FULL + (
+        "  grid: {h: 5.0, s_mva: 1000, t_gov_s: 4}\n"
+        "  batteries: {turbines: [wt1_1, wt1_2], soc_init: 0.6}\n"
+        "  p_star: {wt1_1: 0.0}\n"
+        "timeline:\n"
+        "  - {t: 1, do: set, param: avr_ref, delta: 0.04}\n"
+        "  - {t: 2, do: set, param: grid_emf, value: 0.92}\n")))
+    assert sc.plant.grid.grid_params() == {"h_grid": 5.0, "s_grid_mva": 1000.0, "t_gov": 4.0}
+    assert sc.plant.batteries.turbines == ["wt1_1", "wt1_2"] and sc.plant.batteries.soc_init == 0.6
+    assert sc.plant.p_star == {"wt1_1": 0.0}
+    assert (sc.timeline[0].delta, sc.timeline[0].value) == (0.04, None)
+    assert (sc.timeline[1].delta, sc.timeline[1].value) == (None, 0.92)
+    assert "grid_voltage" in settable.relative_params(settable.model_class("minimal"))
+    assert {"avr_ref", "grid_emf", "grid_voltage"} <= set(settable.relative_params(settable.model_class("full")))
+
+
+@pytest.mark.parametrize(
+    ("body", "line", "key", "expect"),
+    [
+        (FULL + "  grid: {h: -1}\n", 6, "plant.grid.h", "greater than or equal to 0"),
+        (FULL + "  grid: {h: 5, inertia: 3}\n", 6, "plant.grid.inertia", "unknown key"),
+        (FULL + "  grid: {s_mva: 0}\n", 6, "plant.grid.s_mva", "greater than 0"),
+        (BASE + "plant:\n  grid: {h: 5}\n", 5, "plant.grid", "grid needs plant.model: full"),
+        (BASE + "plant:\n  batteries: {turbines: [wt1_1]}\n", 5, "plant.batteries", "needs plant.model: full"),
+        (FULL + "  batteries: {turbines: [wt1_1], soc_init: 0.95}\n", 6, "plant.batteries.soc_init",
+         "less than or equal to 0.9"),
+        (FULL + "  batteries: {turbines: []}\n", 6, "plant.batteries.turbines", "at least 1 item"),
+        (FULL + "  batteries: {turbines: [wt1_1, wt1_1]}\n", 6, "plant.batteries.turbines", "more than once: wt1_1"),
+        (FULL + "  batteries: {turbines: [wt1_1, wt9_1]}\n", 6, "plant.batteries.turbines.1",
+         "turbine 'wt9_1' is not in topology"),
+        (FULL + "  batteries: {turbines: [wt1_1], capacity_ah: 10}\n", 6, "plant.batteries.capacity_ah", "unknown key"),
+        (FULL + "  p_star: {wt1_1: 2.0}\n", 6, "plant.p_star.wt1_1", "less than or equal to 1.1"),
+        (FULL + "  p_star: {wt7_1: 0.0}\n", 6, "plant.p_star.wt7_1", "not in topology"),
+        (FULL + "timeline:\n  - {t: 1, do: set, param: avr_ref, value: 1.0, delta: 0.04}\n", 7, "timeline.0",
+         "exactly one of value (absolute) and delta (relative)"),
+        (FULL + "timeline:\n  - {t: 1, do: set, param: avr_ref}\n", 7, "timeline.0", "exactly one of value"),
+        (FULL + "timeline:\n  - {t: 1, do: set, param: sc_connected, delta: 1}\n", 7, "timeline.0.delta",
+         "cannot change 'sc_connected' by a delta"),
+    ],
+)
+def test_bad_grid_battery_and_delta_keys(tmp_path, body, line, key, expect):
+    path = write(tmp_path, body)
+    with pytest.raises(ScenarioError) as err:
+        load_scenario(path)
+    text = str(err.value)
+    assert text.startswith(f"{path}:{line}: {key}:"), text
+    assert expect in text, text
+
+
+def test_relative_set_reads_the_present_value():
+    from plant.minimal import MinimalPlant
+    from plant.service_model import apply_set
+    from plant.sim import Plant
+
+    plant = Plant(n_turbines=50, jit=False)
+    ref0 = plant.get_avr_ref()
+    assert apply_set(plant, {"param": "avr_ref", "delta": 0.04}) == {"before": ref0, "value": ref0 + 0.04}
+    assert plant.sc.v_ref == pytest.approx(ref0 + 0.04)
+    assert apply_set(plant, {"param": "avr_ref", "value": 1.0}) == {"value": 1.0} and plant.sc.v_ref == 1.0
+    minimal = MinimalPlant(1)
+    apply_set(minimal, {"param": "grid_voltage", "delta": -0.05})
+    assert minimal.get_grid_voltage() == pytest.approx(0.95)
+    with pytest.raises(ValueError, match="by a delta"):
+        apply_set(minimal, {"param": "scr", "delta": 1.0})

@@ -1,0 +1,87 @@
+"""The model a plant service paces (:func:`build_model`): the scenario's ``plant.model`` with the
+settings of its plant section — the grid source's inertia, batteries on DC links, P* from t = 0 —
+applied before t = 0, and the relative ``set`` of a timeline (:func:`apply_set`)."""
+
+from __future__ import annotations
+
+from sdvisc import wire
+from sdvisc.config import PlantConfig
+
+FARM_TURBINES_PER_CLUSTER = 10
+
+
+def farm_index(name: str, n_farm: int) -> int:
+    """Farm turbine index of host ``wt<c>_<n>``: ``(c-1)*10 + n-1``."""
+    c, n = wire.parse_turbine(name)
+    index = (c - 1) * FARM_TURBINES_PER_CLUSTER + (n - 1)
+    if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm:
+        raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
+    return index
+
+
+def build_model(cfg: PlantConfig, names: list[str]):
+    """The plant model and the model index of each turbine endpoint (by host name).
+
+    ``minimal``: one model turbine per turbine host. ``full``: the 50-turbine farm of
+    :mod:`plant.sim`; host ``wt<c>_<n>`` is farm turbine ``(c-1)*10 + n-1``, the other farm
+    turbines run without a network endpoint (grid following). The full model takes ``cfg.grid``
+    (the grid source, ``GridParams``), ``cfg.p_star`` (P* from t = 0: the steady state is computed
+    for it, as plant/cases.py ``visc_plant`` does) and ``cfg.batteries`` (connected at t = 0; the
+    packs float on the DC link at ``battery_soc_init``).
+    """
+    kind = cfg.model
+    step_s = cfg.step_s
+    if kind == "minimal":
+        if cfg.grid.given() or cfg.batteries or cfg.p_star:
+            raise ValueError("grid, batteries and p_star need the full plant model")
+        from plant.minimal import MinimalPlant
+
+        model = MinimalPlant(len(names), step_s, remote_loss_fallback_s=cfg.remote_loss_fallback_s,
+                             remote_apply=cfg.remote_apply)
+        return model, list(range(len(names)))
+    if kind == "full":
+        from dataclasses import replace
+
+        from plant.jitstep import warm_up
+        from plant.params import PlantParams
+        from plant.sim import Plant
+
+        base = PlantParams()
+        turbine = replace(base.turbine, remote_apply=cfg.remote_apply,
+                          remote_loss_fallback_s=cfg.remote_loss_fallback_s)
+        battery = base.battery if cfg.battery_soc_init is None else replace(base.battery, soc_init=cfg.battery_soc_init)
+        params = replace(base, turbine=turbine, grid=replace(base.grid, **cfg.grid.given()), battery=battery)
+        n_farm = params.n_clusters * FARM_TURBINES_PER_CLUSTER
+        indices = [farm_index(name, n_farm) for name in names]
+        warm_up(params, step_s)  # kernels loaded before t = 0, not at the first CTRL packet
+        plant = Plant(params, n_turbines=n_farm, step_s=step_s)
+        if cfg.p_star:
+            for name, p in cfg.p_star.items():
+                plant.set_power_ref(farm_index(name, n_farm), p=p)
+            plant.reinitialise()
+        if cfg.batteries:
+            plant.set_battery([farm_index(name, n_farm) for name in cfg.batteries], True)
+        for scr in [None, *cfg.prepare_scr]:  # the states the run enters: no LU in a paced step
+            plant.net.prepare(fault_on=True, **({} if scr is None else {"scr": scr}))
+            if scr is not None:
+                plant.net.prepare(scr=scr)
+        return plant, indices
+    raise ValueError(f"unknown plant model {kind!r}")
+
+
+def apply_set(model, event: dict) -> dict:
+    """A timeline ``set``: ``set_<param>(value)``, or ``set_<param>(get_<param>() + delta)``;
+    returns what was applied (``value``, and ``before`` for a delta)."""
+    param = event["param"]
+    setter = getattr(model, f"set_{param}", None)
+    if setter is None:
+        raise ValueError(f"plant has no settable parameter {param!r}")
+    if event.get("delta") is None:
+        setter(event["value"])
+        return {"value": event["value"]}
+    getter = getattr(model, f"get_{param}", None)
+    if getter is None:
+        raise ValueError(f"plant cannot change {param!r} by a delta (no get_{param})")
+    before = float(getter())
+    setter(before + float(event["delta"]))
+    return {"before": before, "value": before + float(event["delta"])}
