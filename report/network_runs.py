@@ -63,8 +63,13 @@ def read_timeseries(path: Path) -> dict[str, np.ndarray]:
     return {name: data[:, j] for j, name in enumerate(header)}
 
 
+def load(name: str) -> dict:
+    """scenarios/paper/<name>.yaml as plain data (the report never imports scenarios/)."""
+    return yaml.safe_load(scenario_path(name).read_text())
+
+
 def timeline(name: str) -> list[dict]:
-    return yaml.safe_load(scenario_path(name).read_text())["timeline"]
+    return load(name)["timeline"]
 
 
 def packet_rate(ts: dict[str, np.ndarray], wt: str) -> tuple[np.ndarray, np.ndarray]:

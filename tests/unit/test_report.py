@@ -301,3 +301,13 @@ def test_the_sweeps_beyond_the_paper_are_offline_and_run_before_the_network():
     assert kinds["B1"] == kinds["B2"] == "offline"
     assert max(ids.index("B1"), ids.index("B2")) < min(i for i, e in enumerate(EXPERIMENTS) if e.kind == "cyber")
     assert all(c.beyond or c.paper != "not stated" for e in EXPERIMENTS for c in e.claims)
+
+
+def test_f5net_reads_its_case_from_the_scenario_file():
+    """F5net's offline counterpart is built from what scenarios/paper/f5_inertia_100mw_battery.yaml sets."""
+    from report.exp_inertia_net import case
+
+    c = case()
+    assert c["grid"] == {"h_grid": 5.0, "s_grid_mva": 1000.0}
+    assert (c["h"], c["n_visc"], c["mw"], c["t_load"]) == (4.0, 4, 100.0, 1.0)
+    assert c["batteries"] == ["wt3_1", "wt3_2", "wt3_3", "wt3_4"] and c["soc_init"] == 0.5
