@@ -130,6 +130,7 @@ class Commands:
         ``soc`` sets their state of charge (default: kept, initially BatteryParams.soc_init)."""
         idx = np.atleast_1d(index)
         self.tb.battery[idx] = bool(on)
+        self._any_battery = bool(self.tb.battery.any())
         if soc is not None:
             self.tb.batt.soc[idx] = float(soc)
         self._cache = None

@@ -59,6 +59,7 @@ class Plant(Commands, RightHandSide):
         self._compiled = CompiledPath(self.params.turbine, self.layout) if jit else None  # jit=False: numpy only
         self.compiled_law = True  # False: the hd_visc law in numpy between compiled kernels (a test's reference)
         self._law_c = None  # (ViscParams, count, law.param_rows) for the compiled law
+        self._any_battery = False  # any turbine's battery connected (kept by set_battery: not an array scan per step)
         self.slow_every = max(1, int(slow_every))
         self._slow_keep = False
         self._slow_next = 0
@@ -177,7 +178,7 @@ class Plant(Commands, RightHandSide):
         """Store the new state, count the step and evaluate it (the next step's first stage) unless
         ``evaluation`` = (dX, aux) of it is given (the compiled step). Batteries: their SOC and
         energy advance by the step at the current of its first stage (plant/battery.py)."""
-        if self._cache is not None and self.tb.battery.any():
+        if self._any_battery and self._cache is not None:
             aux = self._cache[2]
             self.tb.batt.count(np.where(self.net.plugged, aux["ibatt"], 0.0), aux["vdc"], self.step_s)
         self.X, self.xl = X, xl
