@@ -48,10 +48,10 @@ def _send_iref(p):
     p.apply_remote(IDX, np.zeros(4), np.zeros(4), 0.9 * i["i_d"][IDX], 0.9 * i["i_q"][IDX])
 
 
-def _run(jit: bool, t_end: float = 1.5, record_every: int = 5, events=None, params=None, every5=None):
-    p = Plant(params, n_turbines=50, jit=jit)
+def _count_compiled_steps(p) -> list[int]:
+    """[numpy-path steps, compiled steps] of plant ``p`` from now on (counted around its compiled step)."""
     counts = [0, 0]
-    if jit:
+    if p._compiled is not None:
         inner = p._compiled.step
 
         def counting(*a):
@@ -60,6 +60,12 @@ def _run(jit: bool, t_end: float = 1.5, record_every: int = 5, events=None, para
             return r
 
         p._compiled.step = counting
+    return counts
+
+
+def _run(jit: bool, t_end: float = 1.5, record_every: int = 5, events=None, params=None, every5=None):
+    p = Plant(params, n_turbines=50, jit=jit)
+    counts = _count_compiled_steps(p)
     ev = {int(round(t / p.step_s)): f for t, f in (events or EVENTS).items()}
     meas, outs = [], []
     for k in range(int(round(t_end / p.step_s))):
@@ -135,16 +141,7 @@ def _visc_run(variant: str, t_end: float = 0.5):
     p.reinitialise()
     p.set_mode(IDX, "hd_visc")
     p.compiled_law = variant == "compiled"
-    counts = [0, 0]
-    if p._compiled is not None:
-        inner = p._compiled.step
-
-        def counting(*a):
-            r = inner(*a)
-            counts[r is not None] += 1
-            return r
-
-        p._compiled.step = counting
+    counts = _count_compiled_steps(p)
     ev = {int(round(t / p.step_s)): f for t, f in VISC_EVENTS.items()}
     rec = {"v_pcc": [], "q": [], "xl": [], "e_mag": [], "limited": []}
     for k in range(int(round(t_end / p.step_s))):
