@@ -12,10 +12,10 @@ from report.plantcases import visc_plant
 from report.registry import Context, Experiment, Finding, PaperClaim
 from report.verdicts import close_to, holds
 from sdc_unit.params import ViscParams
+from sdvisc.config import GRID_SCENARIO_KEYS
 
 NAME = "f5_inertia_100mw_battery"
 NADIR_YES, NADIR_PARTLY = 0.10, 0.35  # |nadir_network - nadir_offline| / |nadir_offline| (the report's usual rule)
-GRID_KEYS = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov"}
 
 F5NET_CLAIMS = (
     PaperClaim("F5net.a", "+100 MW load, SDViSCs (H 4 s) with a 2000 Ah battery on the DC link — with the SDC "
@@ -33,7 +33,7 @@ def case() -> dict:
     visc = [e for e in sc["timeline"] if e["do"] == "visc_on"]
     load = next(e for e in sc["timeline"] if e["do"] == "load_step")
     batteries = plant.get("batteries") or {}
-    return {"grid": {GRID_KEYS[k]: v for k, v in (plant.get("grid") or {}).items()},
+    return {"grid": {GRID_SCENARIO_KEYS[k]: v for k, v in (plant.get("grid") or {}).items()},
             "h": float(visc[0].get("params", {}).get("h", ViscParams().h)), "n_visc": len(visc),
             "batteries": batteries.get("turbines", []),
             "soc_init": batteries.get("soc_init", BatteryParams.soc_init),

@@ -18,7 +18,7 @@ from typing import Annotated, Literal, get_args
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from plant.params import BatteryParams, GridParams
-from sdvisc.config import GATHER_HELP
+from sdvisc.config import GATHER_HELP, GRID_SCENARIO_KEYS
 
 TURBINE_PATTERN = r"^wt\d+_\d+$"
 
@@ -64,8 +64,7 @@ class GridSourceSpec(Strict):
 
     def grid_params(self) -> dict[str, float]:
         """The ``GridParams`` fields these keys set (only those given)."""
-        names = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov"}
-        return {names[k]: v for k, v in self.model_dump().items() if v is not None}
+        return {GRID_SCENARIO_KEYS[k]: v for k, v in self.model_dump().items() if v is not None}
 
 
 class BatterySpec(Strict):

@@ -85,6 +85,10 @@ class TurbineEndpoint(_Config):
     pid: int | None = Field(None, description="a process in the turbine's network namespace (None: this one)")
 
 
+GRID_SCENARIO_KEYS = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov"}
+"""A scenario's ``plant.grid`` keys -> the fields of :class:`GridSourceSettings` (``GridParams``)."""
+
+
 class GridSourceSettings(_Config):
     """The full model's grid source (``plant.params.GridParams`` fields; None: the plant's default)."""
 
