@@ -7,10 +7,12 @@ full report: the paper's stable cases also stay near the rated voltage."""
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from report import figures
-from report.boundary import smallest_sufficient, threshold
+from report.boundary import Boundary, smallest_sufficient, threshold
 from report.plantcases import PTP_SETTLED, V_BAND, bare_plant, sc_plant, settling, visc_plant
 from report.registry import Context, Experiment, Finding, PaperClaim
 from report.verdicts import close_to, holds
@@ -41,19 +43,31 @@ def _run_scr(make, scr: float, t_end: float) -> dict:
         return make().run_offline(t_end, events=[(T_EVENT, lambda q: q.set_scr(scr))], record_every=10)
 
 
+def f7_search_settings(quick: bool) -> tuple[float, float]:
+    """(run length [s], bisection tolerance on SCR) of the F7 searches."""
+    return (3.0, 0.08) if quick else (4.0, 0.02)
+
+
+@functools.cache
+def search_boundary(config: str, t_end: float, xtol: float) -> tuple[Boundary, dict[float, dict]]:
+    """The SCR stability boundary of ``config`` (a key of CONFIGS) and the offline runs either side
+    of it; kept for the process, so F7net confirms the boundary F7 found without searching again."""
+    make, runs = CONFIGS[config], {}
+
+    def stable_at(scr: float) -> bool:
+        runs[scr] = _run_scr(make, scr, t_end)
+        return settling(runs[scr], T_EVENT).settled
+
+    b = threshold(stable_at, 1.0, 4.0, xtol)
+    return b, {x: runs[x] for x in (b.bracket or ())}
+
+
 def _f7(ctx: Context) -> dict[str, Finding]:
-    t_end, xtol = (3.0, 0.08) if ctx.quick else (4.0, 0.02)
+    t_end, xtol = f7_search_settings(ctx.quick)
     found, traces, bounds, band = {}, {}, {}, {}
     for name, make in CONFIGS.items():
-        runs = {}
-
-        def stable_at(scr: float, make=make, runs=runs) -> bool:
-            runs[scr] = _run_scr(make, scr, t_end)
-            return settling(runs[scr], T_EVENT).settled
-
-        b = threshold(stable_at, 1.0, 4.0, xtol)
+        b, traces[name] = search_boundary(name, t_end, xtol)
         bounds[name] = b
-        traces[name] = {x: runs[x] for x in (b.bracket or ())}
         ctx.numbers[f"stability boundary {name}"] = {"boundary_scr": b.value, "bracket": b.bracket,
                                                      "evaluations": b.evaluations, "note": b.note}
         if not ctx.quick:  # where it stops settling within the voltage band, as evidence

@@ -33,13 +33,37 @@ def command(name: str) -> str:
 
 def run(ctx: Context, name: str) -> tuple[dict, dict[str, np.ndarray]]:
     """Run scenarios/paper/<name>.yaml into <out>/runs/<name>; (summary, timeseries columns)."""
+    return _run_file(ctx, scenario_path(name), name)
+
+
+def run_variant(ctx: Context, name: str, label: str, changes: dict) -> tuple[dict, dict[str, np.ndarray]]:
+    """Run scenarios/paper/<name>.yaml with ``changes`` applied (``{"timeline": fn}`` maps the timeline
+    list; other keys replace top-level keys), written to <out>/scenarios/<label>.yaml and run into
+    <out>/runs/<label>: e.g. the F7 case at the SCR the offline search found."""
+    return _run_file(ctx, write_variant(ctx.out_dir / "scenarios", name, label, changes), label)
+
+
+def write_variant(directory: Path, name: str, label: str, changes: dict) -> Path:
+    """scenarios/paper/<name>.yaml with ``changes`` applied (see :func:`run_variant`), named
+    ``label``, written to <directory>/<label>.yaml."""
+    data = load(name)
+    for key, value in changes.items():
+        data[key] = value(data[key]) if callable(value) else value
+    data["name"] = label
+    path = directory / f"{label}.yaml"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(f"# {name} with {', '.join(changes)} changed by the report\n" + yaml.safe_dump(data, sort_keys=False))
+    return path
+
+
+def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.ndarray]]:
     if os.geteuid() != 0:
         raise NotRun("cyber-in-the-loop runs need root (Mininet and Open vSwitch)")
     if shutil.which("flock") is None or shutil.which("ovs-vsctl") is None:
         raise NotRun("cyber-in-the-loop runs need flock and Open vSwitch (./testbed sets them up)")
     out = ctx.out_dir / "runs" / name
     out.mkdir(parents=True, exist_ok=True)
-    cmd = ["flock", NETWORK_LOCK, sys.executable, "-m", "scenarios.cli", "run", str(scenario_path(name)),
+    cmd = ["flock", NETWORK_LOCK, sys.executable, "-m", "scenarios.cli", "run", str(path),
            "--out", str(out), "--quiet"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
     proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)

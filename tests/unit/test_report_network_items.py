@@ -1,0 +1,37 @@
+"""The report's F…net items read their cases from scenarios/paper/ and agree with the offline
+experiments they are compared with; F7net's changed scenario is a valid scenario (no network)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from report import network_runs
+from report.exp_grid import GRID_INERTIA
+from report.exp_grid_net import _scr_timeline
+from report.exp_parallel import M_Q
+from scenarios.loader import load_scenario
+from sdvisc.config import GRID_SCENARIO_KEYS
+
+
+def test_f7net_variant_changes_only_the_scr_and_the_duration_and_still_loads(tmp_path):
+    path = network_runs.write_variant(tmp_path, "f7_weak_grid_visc", "f7_weak_grid_visc_scr1.454",
+                                      {"timeline": _scr_timeline(1.454), "duration_s": 3.0})
+    original = load_scenario(network_runs.scenario_path("f7_weak_grid_visc"))
+    sc = load_scenario(path)
+    assert sc.name == "f7_weak_grid_visc_scr1.454" and sc.duration_s == 3.0
+    scr = [e for e in sc.timeline if e.do == "scr"]
+    assert len(scr) == 1 and scr[0].value == 1.454
+    same = [e for e in sc.timeline if e.do != "scr"]
+    assert same == [e for e in original.timeline if e.do != "scr"]
+    assert sc.plant == original.plant and sc.topology == original.topology and sc.time_scale == "auto"
+
+
+def test_the_network_cases_are_the_offline_ones():
+    f4 = network_runs.load("f4_inertia_50mw")
+    assert {GRID_SCENARIO_KEYS[k]: v for k, v in f4["plant"]["grid"].items()} == GRID_INERTIA
+    f8 = [e for e in network_runs.timeline("f8_parallel_droop") if e["do"] == "visc_on"]
+    assert np.allclose([e["params"]["m_q"] for e in f8], M_Q)
+    f2 = network_runs.load("f2_trapezoid_025ms")
+    assert f2["step_s"] == 0.00025 and f2["sdc"]["method"] == "trapezoid_cumulative" and f2["sdc"]["dtype"] == "float32"
+    f7 = [e for e in network_runs.timeline("f7_weak_grid_visc") if e["do"] == "scr"]
+    assert [e["t"] for e in f7] == [1.0]  # report/exp_weak.py's T_EVENT
