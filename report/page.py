@@ -65,8 +65,16 @@ def _experiments_table(exps: list[dict]) -> str:
     body = "".join(
         f"<tr><td><a href='#{escape(e['id'])}'>{escape(e['id'])}</a> {escape(e['title'])}</td>"
         f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']), e['status'])}"
-        f"<td>{e['wall_s']} s</td><td>{escape(str(e['time_scale']))}</td></tr>" for e in exps)
+        f"<td>{e['wall_s']} s</td><td>{escape(_time_scale_text(e['time_scale']))}</td></tr>" for e in exps)
     return f"<table>{head}{body}</table>"
+
+
+def _time_scale_text(time_scale) -> str:
+    """A cyber experiment's time scales ({run: k}) as "k = 16 (run)"; an offline one's text as is."""
+    if isinstance(time_scale, dict):
+        return "; ".join(f"k = {k:g} ({run})" if isinstance(k, (int, float)) else f"{run}: {k}"
+                         for run, k in time_scale.items()) or "—"
+    return str(time_scale)
 
 
 def _status_class(status: str) -> str:

@@ -24,6 +24,7 @@ from scenarios import configs
 from scenarios.calibrate import Calibration, calibration_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
+from scenarios.netprep import mark_switches, prepare_hosts
 from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
@@ -68,6 +69,7 @@ class Run:
         self.t0: float | None = None  # the run clock's reading at t = 0 (simulated seconds)
         self.auto_time_scale = scenario.time_scale == "auto"
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
+        self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
         self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
         self.wall_started: float | None = None
         self.wall_ended: float | None = None
@@ -129,16 +131,14 @@ class Run:
         self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=ports[0])
         if sc.sdn.redundancy:
             self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=ports[1])
+        phase = self._phase_timer()
         self.net.build()
+        phase("mininet_build")
         self.net.start()
-        for sw in self.net.switches:
-            sw.cmd(f"ovs-vsctl br-set-external-id {sw.name} sdvisc 1")
-        for host in self.net.hosts:
-            for intf in host.intfList():
-                host.cmd(f"ethtool -K {intf.name} tx off")
-        self.net.staticArp()
-        for host in self.net.hosts:
-            host.cmd(f"arp -s {CONTROLLER_VIP} {CONTROLLER_VMAC}")
+        phase("switches_start")
+        mark_switches(self.net.switches)
+        prepare_hosts(self.net.hosts, CONTROLLER_VIP, CONTROLLER_VMAC)
+        phase("hosts_prepare")
         self.impairments.start(self)
         if self.auto_time_scale:  # measured before the SDN app starts (its config carries the clock)
             self._say("sdvisc: time_scale auto: probing the plant, the SDC and the network at k = 1, 2, 4, …")
@@ -146,8 +146,21 @@ class Run:
             self.set_time_scale(self.calibration["time_scale"])
             self.impairments.set_clock(self.clock_settings)
             self._say(calibration_line(self.calibration))
+            phase("calibration")
             self._start_sdn_apps(ports)  # the switches reconnect within their max_backoff (1 s)
         self._wait_switches()
+        phase("switches_connect")
+
+    def _phase_timer(self):
+        """A function that records the wall seconds since its previous call under a phase's name
+        (summary.json: time.setup_wall_s)."""
+        last = [time.perf_counter()]
+
+        def phase(name: str) -> None:
+            now = time.perf_counter()
+            self.setup_wall_s[name] = round(now - last[0], 3)
+            last[0] = now
+        return phase
 
     def _start_sdn_apps(self, ports: list[int]) -> None:
         sc = self.scenario

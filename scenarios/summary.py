@@ -140,6 +140,9 @@ def time_section(run) -> dict:
     out = {"time_scale": k, "units": "simulated seconds",
            "wall_duration_s": round(ended - started, 3) if started and ended else None,
            "not_scaled": list(NOT_SCALED) if k != 1 else []}
+    setup = getattr(run, "setup_wall_s", None)
+    if setup:
+        out["setup_wall_s"] = dict(setup)
     calibration = getattr(run, "calibration", None)
     if calibration is not None:
         out["calibration"] = calibration
