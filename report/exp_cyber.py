@@ -11,6 +11,7 @@ from plant.run_record import read_run
 from plant.turbine import REMOTE
 from report import figures, network_runs
 from report.exp_sdc import RMS_PARTLY, RMS_YES
+from report.exp_weak import f9_search, f9_settings
 from report.plantcases import settling, visc_plant
 from report.registry import Context, Experiment, Finding, PaperClaim
 from report.verdicts import close_to, holds
@@ -29,6 +30,8 @@ F6NET_CLAIMS = (
 F9NET_CLAIMS = (
     PaperClaim("F9net.a", "With 4 SDViSCs, SCR 7.14 → 1.51 at 1 s, the oscillations are damped and the system reaches "
                "a stable operating condition — with the SDC over the network", "4 SDViSCs: stable"),
+    PaperClaim("F9net.b", "Number of SDViSCs needed at SCR 1.51 — the offline search's boundary (n stable, n − 1 not) "
+               "confirmed with the SDC over the network", "4"),
 )
 C1_CLAIMS = (
     PaperClaim("C1.a", "When SDViSCs are plugged in (cluster 1 at 1.2 s, cluster 4 at 4.8 s) the SDC immediately "
@@ -110,7 +113,43 @@ def _f9net(ctx: Context) -> dict[str, Finding]:
     return {"F9net.a": Finding(
         f"network: {net.describe()}", holds(net.holds, partly=net.settled),
         f"yes = settles at ≥ 0.9 p.u., partly = settles below; offline (hd_visc, same SCR step): {offline.describe()}",
-        {"network": vars(net), "offline": vars(offline)})}
+        {"network": vars(net), "offline": vars(offline)}), "F9net.b": _f9net_boundary(ctx, name)}
+
+
+def first_visc(n: int):
+    """A timeline change that keeps only the first ``n`` visc_on requests (the offline F9's
+    ``visc_plant(n)`` makes turbines 20 … 20 + n − 1 SDViSCs: wt3_1 … in the files' order)."""
+    def change(timeline: list[dict]) -> list[dict]:
+        keep = [e["wt"] for e in timeline if e["do"] == "visc_on"][:n]
+        return [e for e in timeline if e["do"] != "visc_on" or e["wt"] in keep]
+    return change
+
+
+def _f9net_boundary(ctx: Context, name: str) -> Finding:
+    """The F9 search's n (the fewest SDViSCs that settle, offline) and n − 1, through the network:
+    the scenario with only the first n (n − 1) of its four visc_on requests."""
+    b = f9_search(ctx.quick)
+    if b.value is None or b.value < 1:
+        raise ValueError(f"the offline search gives no boundary to confirm ({b.note or b.value})")
+    n_b = int(b.value)
+    t_end, _ = f9_settings(ctx.quick)
+    requests = [e for e in network_runs.timeline(name) if e["do"] == "visc_on"]
+    if n_b > len(requests):
+        raise ValueError(f"the boundary n = {n_b} is more than the scenario's {len(requests)} SDViSCs")
+    seen = {}
+    for n in (n_b, n_b - 1):
+        summary, ts = network_runs.run_variant(ctx, name, f"f9_scr151_{n}visc",
+                                               {"timeline": first_visc(n), "duration_s": t_end})
+        seen[n] = (settling(ts, 1.0), summary)
+    ok_b, ok_below = seen[n_b][0].settled, seen[n_b - 1][0].settled
+    verdict = "yes" if n_b == 4 and ok_b and not ok_below else "partly" if ok_b and not ok_below else "no"
+    return Finding(
+        f"network: {n_b} SDViSCs {'settle' if ok_b else 'do not settle'}, {n_b - 1} "
+        f"{'settle' if ok_below else 'do not'} (offline boundary n = {n_b})", verdict,
+        "yes = the network confirms the offline boundary and it is the paper's 4; partly = it confirms a boundary "
+        "other than 4 (offline, unity-power-factor turbines: docs/plant.md 4d); "
+        + "; ".join(f"{n}: {s.describe()} at k = {summ.get('time', {}).get('time_scale')}" for n, (s, summ) in seen.items()),
+        {"n_offline": n_b, "network": {n: vars(s) for n, (s, _) in seen.items()}})
 
 
 def _grid_and_packets(ctx: Context, runs: dict, wts: list[str], name: str, caption: str, markers: dict) -> None:

@@ -119,8 +119,8 @@ def _f3net(ctx: Context) -> dict[str, Finding]:
     return {
         "F3net.a": Finding(f"network {net['v_before']:.3f} → {net['v_after']:.3f}, offline {off['v_before']:.3f} → "
                            f"{off['v_after']:.3f} p.u.", a_verdict if _clean(summary) else "no",
-                           f"rise compared with the paper's +0.035; the network's rise is {agree} as offline "
-                           f"({rise_net:+.4f} vs {rise_off:+.4f} p.u., within {AGREE_YES:.0%} = the same). 4 × 10 MVA on a "
+                           f"rise compared with the paper's +0.035; network vs offline rise {rise_net:+.4f} vs {rise_off:+.4f} "
+                           f"p.u. (same within {AGREE_YES:.0%}: {agree}). 4 × 10 MVA on a "
                            f"3570 MVA PCC gives ≈ 1 % (docs/plant.md 4a); {_trips(summary)}",
                            {"network": net, "offline": off}),
         "F3net.b": Finding(f"t90 network {net['t90_s']:.2f} s (offline {off['t90_s']:.2f} s) vs SC {t90_sc:.2f} s",

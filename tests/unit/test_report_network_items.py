@@ -35,3 +35,14 @@ def test_the_network_cases_are_the_offline_ones():
     assert f2["step_s"] == 0.00025 and f2["sdc"]["method"] == "trapezoid_cumulative" and f2["sdc"]["dtype"] == "float32"
     f7 = [e for e in network_runs.timeline("f7_weak_grid_visc") if e["do"] == "scr"]
     assert [e["t"] for e in f7] == [1.0]  # report/exp_weak.py's T_EVENT
+
+
+def test_f9net_variants_keep_the_first_n_sdviscs_as_the_offline_search_does(tmp_path):
+    from plant.cases import FIRST_VISC
+    from report.exp_cyber import first_visc
+
+    path = network_runs.write_variant(tmp_path, "f9_scr151_4visc", "f9_scr151_3visc", {"timeline": first_visc(3)})
+    sc = load_scenario(path)
+    assert [e.wt for e in sc.timeline if e.do == "visc_on"] == ["wt3_1", "wt3_2", "wt3_3"]
+    assert [e.value for e in sc.timeline if e.do == "scr"] == [1.51]
+    assert FIRST_VISC == 20  # wt3_1: turbine 20 of the farm (clusters of ten, 0-based)
