@@ -5,11 +5,13 @@ from its summary.json and timeseries.csv. Never imports scenarios/ (floors)."""
 from __future__ import annotations
 
 import csv
+import fcntl
 import json
 import os
 import shutil
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +23,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PAPER_SCENARIOS = ROOT / "scenarios" / "paper"
 NETWORK_LOCK = "/tmp/sdvisc-net.lock"  # every run that builds a Mininet network holds it
 RUN_TIMEOUT_S = 1800
+LOCK_WAIT_KEY = "network_lock_wait_s"  # ctx.numbers: per run, the wall seconds spent waiting for the lock
 
 
 def scenario_path(name: str) -> Path:
@@ -59,14 +62,18 @@ def write_variant(directory: Path, name: str, label: str, changes: dict) -> Path
 def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.ndarray]]:
     if os.geteuid() != 0:
         raise NotRun("cyber-in-the-loop runs need root (Mininet and Open vSwitch)")
-    if shutil.which("flock") is None or shutil.which("ovs-vsctl") is None:
-        raise NotRun("cyber-in-the-loop runs need flock and Open vSwitch (./testbed sets them up)")
+    if shutil.which("ovs-vsctl") is None:
+        raise NotRun("cyber-in-the-loop runs need Open vSwitch (./testbed sets it up)")
     out = ctx.out_dir / "runs" / name
     out.mkdir(parents=True, exist_ok=True)
-    cmd = ["flock", NETWORK_LOCK, sys.executable, "-m", "scenarios.cli", "run", str(path),
-           "--out", str(out), "--quiet"]
+    cmd = [sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
-    proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
+    with open(NETWORK_LOCK, "a") as lock:  # the same lock as flock(1) takes (flock(2) on the file)
+        waited = time.perf_counter()
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        waited = time.perf_counter() - waited
+        proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
+    ctx.numbers.setdefault(LOCK_WAIT_KEY, {})[name] = round(waited, 1)  # other work's network runs, not ours
     (out / "report_run.log").write_text(proc.stdout + proc.stderr)
     summary_path = out / "summary.json"
     if proc.returncode != 0 or not summary_path.exists():
@@ -76,7 +83,8 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
     k = summary.get("time", {}).get("time_scale")
     ctx.numbers.setdefault("time_scale", {})[name] = k
     ctx.notes.append(f"{name}: time scale {k}, wall {summary.get('time', {}).get('wall_duration_s')} s, "
-                     f"{summary.get('late_steps')} of {summary.get('steps')} steps late; output {out}")
+                     f"{summary.get('late_steps')} of {summary.get('steps')} steps late; waited {waited:.0f} s for the network "
+                     f"lock; output {out}")
     return summary, read_timeseries(out / "timeseries.csv")
 
 

@@ -30,6 +30,7 @@ def _machine(data: dict) -> str:
     return (f"<p>{b['cpu_count']} CPUs, kernel <code>{escape(b['kernel'])}</code>, Python {escape(b['python'])}; "
             f"load average (1, 5, 15 min) {b['load_average']} at the start, {a['load_average']} at the end; "
             f"written {escape(a['written'])}; the whole report took {data['wall_s']} s"
+            f"{_lock_text(data.get('lock_wait_s'))}"
             f"{' (--quick: coarser searches, shorter windows)' if data['quick'] else ''}.</p>")
 
 
@@ -67,6 +68,10 @@ def _experiments_table(exps: list[dict]) -> str:
         f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']), e['status'])}"
         f"<td>{e['wall_s']} s</td><td>{escape(_time_scale_text(e['time_scale']))}</td></tr>" for e in exps)
     return f"<table>{head}{body}</table>"
+
+
+def _lock_text(wait_s) -> str:
+    return f", {wait_s} s of it waiting for the network lock (other work's runs)" if wait_s else ""
 
 
 def _time_scale_text(time_scale) -> str:

@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from report import machine, page
+from report.network_runs import LOCK_WAIT_KEY
 from report.registry import MEASURED, VERDICTS, Context, Experiment, Figure, Finding, NotRun
 
 
@@ -119,6 +120,7 @@ def _data(outcomes: list[Outcome], experiments: list[Experiment], quick: bool, a
         "complete": len(outcomes) == len(experiments),
         "pending": [e.id for e in experiments[len(outcomes):]],
         "wall_s": round(time.time() - started, 1),
+        "lock_wait_s": round(sum(sum(o.numbers.get(LOCK_WAIT_KEY, {}).values()) for o in outcomes), 1),
         "machine": {"before": machine_before, "after": machine.describe()},
         "summary": summarise(rows),
         "experiments": [{
