@@ -19,9 +19,8 @@ takes ``now`` (seconds) and returns a list of :mod:`sdn_app.flows` actions. The 
 
 from __future__ import annotations
 
-from os_ken.lib.packet import ethernet, ipv4, packet, udp
-
 from sdn_app import flows as fl
+from sdn_app import udp_frame
 from sdn_app.messages import Messenger
 from sdn_app.recovery import Recovery
 from sdn_app.requests import Requests
@@ -139,22 +138,18 @@ class Controller:
         counters = self.counters
         counters["packet_in"] += 1
         try:
-            pkt = packet.Packet(data)
-        except Exception:  # noqa: BLE001 - os-ken's parser raises many types on garbage
+            frame = udp_frame.parse(data)
+        except udp_frame.Unparsable:
             counters["drop_unparsable"] += 1
             return []
-        ip = pkt.get_protocol(ipv4.ipv4)
-        u = pkt.get_protocol(udp.udp)
-        eth = pkt.get_protocol(ethernet.ethernet)
-        if ip is None or u is None or eth is None:
+        if frame is None:
             counters["drop_not_udp"] += 1
             return []
-        if ip.dst != self.config.controller_vip or u.dst_port != wire.PORT_CONTROLLER:
+        if frame.ip_dst != self.config.controller_vip or frame.dst_port != wire.PORT_CONTROLLER:
             counters["drop_no_flow"] += 1
-            counters[f"drop_no_flow:{ip.src}->{ip.dst}"] += 1
+            counters[f"drop_no_flow:{frame.ip_src}->{frame.ip_dst}"] += 1
             return []
-        payload = bytes(pkt.protocols[-1]) if isinstance(pkt.protocols[-1], (bytes, bytearray)) else b""
-        msg = self.wire_stats.decode(payload, header=self.config.header)
+        msg = self.wire_stats.decode(frame.payload, header=self.config.header)
         if msg is None:
             counters["drop_malformed"] += 1
             return []
@@ -164,7 +159,7 @@ class Controller:
             return []
         self.guard.note_packet_in(now)
         try:
-            return handler(msg, ip.src, eth.src, now, (dpid, in_port))
+            return handler(msg, frame.ip_src, frame.eth_src, now, (dpid, in_port))
         except (ValueError, KeyError, TypeError) as exc:  # one bad message never stops the app
             counters["drop_bad_value"] += 1
             self.state.event(now, "drop_bad_value", msg_type=msg.type.name, error=str(exc)[:200])
