@@ -175,8 +175,10 @@ class Processes:
         return out
 
     # ------------------------------------------------------------------ the end
-    def stop_all(self) -> None:
-        """Stop every process so it writes its statistics (SIGTERM/EOF, then SIGKILL)."""
+    def stop_all(self, waited: dict[str, float] | None = None) -> None:
+        """Stop every process so it writes its statistics (SIGTERM/EOF, then SIGKILL); ``waited``
+        gets the wall seconds spent waiting for each controller and for the rest."""
+        waited = {} if waited is None else waited
         for name, proc in self.procs.items():
             code = proc.poll()
             if code is not None and name != "plant" and not (name.endswith(".fuzz") and code == 0):
@@ -196,10 +198,13 @@ class Processes:
             if not (name in CONTROLLERS and self.controllers_stopping):
                 proc.send_signal(signal.SIGINT if name.endswith(".tcpdump") else signal.SIGTERM)
             if name in CONTROLLERS:
+                started = time.perf_counter()
                 try:
                     proc.wait(timeout=5)
                 except subprocess.TimeoutExpired:
                     proc.kill()
+                waited[name] = round(time.perf_counter() - started, 3)
+        started = time.perf_counter()
         deadline = time.time() + 5
         for proc in self.procs.values():
             try:
@@ -207,3 +212,4 @@ class Processes:
             except subprocess.TimeoutExpired:
                 proc.kill()
                 proc.wait()
+        waited["others"] = round(time.perf_counter() - started, 3)

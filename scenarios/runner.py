@@ -70,6 +70,7 @@ class Run:
         self.auto_time_scale = scenario.time_scale == "auto"
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
         self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
+        self.teardown_wall_s: dict[str, float] = {}  # … and per teardown phase (each process's stop, mininet)
         self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
         self.wall_started: float | None = None
         self.wall_ended: float | None = None
@@ -151,14 +152,15 @@ class Run:
         self._wait_switches()
         phase("switches_connect")
 
-    def _phase_timer(self):
+    def _phase_timer(self, into: dict[str, float] | None = None):
         """A function that records the wall seconds since its previous call under a phase's name
-        (summary.json: time.setup_wall_s)."""
+        (summary.json: time.setup_wall_s, time.teardown_wall_s)."""
+        into = self.setup_wall_s if into is None else into
         last = [time.perf_counter()]
 
         def phase(name: str) -> None:
             now = time.perf_counter()
-            self.setup_wall_s[name] = round(now - last[0], 3)
+            into[name] = round(now - last[0], 3)
             last[0] = now
         return phase
 
@@ -337,16 +339,20 @@ class Run:
 
     # ------------------------------------------------------------------ teardown
     def teardown(self) -> None:
+        phase = self._phase_timer(self.teardown_wall_s)
         try:
             self.impairments.finish()
-            self.processes.stop_all()
+            self.processes.stop_all(self.teardown_wall_s)
         finally:
+            phase("processes")
             if self.net is not None:
                 try:
                     self.net.stop()
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
+            phase("mininet_stop")
             cleanup.clean()
+            phase("cleanup")
 
 
 def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, quiet: bool = False,

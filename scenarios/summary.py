@@ -140,9 +140,9 @@ def time_section(run) -> dict:
     out = {"time_scale": k, "units": "simulated seconds",
            "wall_duration_s": round(ended - started, 3) if started and ended else None,
            "not_scaled": list(NOT_SCALED) if k != 1 else []}
-    setup = getattr(run, "setup_wall_s", None)
-    if setup:
-        out["setup_wall_s"] = dict(setup)
+    for phases in ("setup_wall_s", "teardown_wall_s"):
+        if getattr(run, phases, None):
+            out[phases] = dict(getattr(run, phases))
     calibration = getattr(run, "calibration", None)
     if calibration is not None:
         out["calibration"] = calibration
