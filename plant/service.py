@@ -36,6 +36,7 @@ from sdvisc.config import ConfigError, PlantConfig, load_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.netns import raise_priority, udp_socket_in
 from sdvisc.stats import delay_summary
+from sdvisc.vocabulary import MEAS_FIELDS
 
 RTT_BINS = 8
 CTRL_GAP_STEPS = 2.5  # a pause between control packets longer than this many steps is recorded (>= 2 missing)
@@ -100,6 +101,7 @@ class PlantService:
             sock = udp_socket_in(t.pid, t.ip, wire.PORT_TURBINE)
             self.endpoints.append(Endpoint(t.name, t.wid, index, sock))
         self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
+        self.streaming: list[Endpoint] = []  # the endpoints streaming, in endpoint order (kept by _on_request)
         self.rx_stats = wire.DecodeStats()
         self.check_rx_source = cfg.check_rx_source  # see plant.endpoint_rx
         self.late_steps = 0
@@ -197,11 +199,13 @@ class PlantService:
                 ep.awaiting_first_ctrl = True
                 ep.stream_started_wall = now
             ep.streaming = True
+            self.streaming = [e for e in self.endpoints if e.streaming]
             ep.sdc_addr = (wire.i32_to_ip(msg["sdc_ip"]), wire.PORT_SDC)
             self.model.set_mode(ep.index, "remote")
             self.live.event({"t": t_sim, "type": "stream_start", "wt": ep.name, "sdc": ep.sdc_addr[0]})
         elif cmd == wire.Command.STREAM_STOP:
             ep.streaming = False
+            self.streaming = [e for e in self.endpoints if e.streaming]
             self.model.set_mode(ep.index, "grid_following")
             self.live.event({"t": t_sim, "type": "stream_stop", "wt": ep.name})
 
@@ -224,10 +228,11 @@ class PlantService:
 
     # ------------------------------------------------------------------ send
     def _send(self, now: float) -> None:
-        streaming = [ep for ep in self.endpoints if ep.streaming]
+        streaming = self.streaming
         if not streaming:
             return
         meas = self.model.measurements()
+        columns = [meas[key] for key in MEAS_FIELDS]
         t_sim = self.k * self.step_s
         sec = int(now)
         nsec = int((now - sec) * 1e9)
@@ -236,7 +241,7 @@ class PlantService:
             i = ep.index
             ep.meas_seq += 1
             values = {"wt": ep.wid, "seq": ep.meas_seq, "t_sim": t_sim,
-                      **{key: float(meas[key][i]) for key in ("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas")}}
+                      **dict(zip(MEAS_FIELDS, [float(column[i]) for column in columns]))}
             hdr = wire.Header(ep.meas_seq, sec, nsec) if self.header else None
             try:
                 ep.sock.sendto(wire.encode(wire.MsgType.MEAS, values, header=hdr), ep.sdc_addr)
