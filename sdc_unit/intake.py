@@ -101,7 +101,7 @@ class MeasurementIntake:
         # the header's send time and the admission's words of every row, as Python values, in one call
         words = rec[list(admission.ADMIT_WORDS if self.header else admission.ADMIT_WORDS[2:])].tolist()
         self.rx_rows = float_rows(rec, admission.CHECKED_ROWS)  # t_sim, then the MEAS_FIELDS
-        out_of_range = admission.out_of_range_matrix(self.rx_rows).tolist()  # one vectorised check per batch
+        out_of_range = admission.out_of_range_flags(self.rx_rows)
         sources = index.tolist()
         for j, row in enumerate(words):
             wid, seq, t_sim = row[-3:]

@@ -6,11 +6,22 @@ from __future__ import annotations
 import socket
 import struct
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sdc_unit.admission import CONFIRM_WINDOW, SeqGate, bad_params, meas_out_of_range
+from sdc_unit.admission import (
+    CHECKED_ROWS,
+    CONFIRM_WINDOW,
+    MEAS_ABS_MAX_PU,
+    T_SIM_MAX_S,
+    SeqGate,
+    bad_params,
+    meas_out_of_range,
+    out_of_range_flags,
+    out_of_range_matrix,
+)
 from sdc_unit.service import SdcService
 from sdvisc import wire
 from sdvisc.config import SdcConfig
@@ -147,3 +158,17 @@ def test_junk_never_stops_control_and_is_counted(service, junk, every):
     assert used + rejected == handled
     assert service.rejected["internal"] == 0
     assert inst.gate.last_seq == seq0 + sent + 2  # the last genuine sample was used
+
+
+def test_out_of_range_flags_agree_with_the_vectorised_check():
+    rng = np.random.default_rng(8)
+    specials = [np.nan, np.inf, -np.inf, MEAS_ABS_MAX_PU, -MEAS_ABS_MAX_PU, np.nextafter(MEAS_ABS_MAX_PU, 1e9),
+                -0.0, T_SIM_MAX_S, np.nextafter(T_SIM_MAX_S, 1e30), -1e-300]
+    for width in (0, 1, 2, 5, 8, 9, 30):
+        for _ in range(40):
+            rows = rng.uniform(-120.0, 120.0, size=(len(CHECKED_ROWS), width))
+            rows[0] = rng.uniform(-1.0, 50.0, size=width)
+            for _ in range(rng.integers(0, 4)):
+                if width:
+                    rows[rng.integers(len(CHECKED_ROWS)), rng.integers(width)] = rng.choice(specials)
+            assert out_of_range_flags(rows) == out_of_range_matrix(rows).tolist()
