@@ -61,6 +61,9 @@ class GridSourceSpec(Strict):
         f"governor droop, p.u. speed / p.u. power (default {GridParams.r_gov:g}); only with h > 0"))
     t_gov_s: float | None = Field(None, gt=0, le=100, description=(
         f"governor/turbine time constant, s (default {GridParams.t_gov:g})"))
+    e: float | None = Field(None, ge=0.8, le=1.2, description=(
+        f"magnitude of the grid source's EMF, p.u. (GridParams.e_grid, default {GridParams.e_grid:g}): e.g. the "
+        "paper's F8 starts from V_pcc = 0.97"))
 
     def grid_params(self) -> dict[str, float]:
         """The ``GridParams`` fields these keys set (only those given)."""

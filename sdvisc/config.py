@@ -85,7 +85,8 @@ class TurbineEndpoint(_Config):
     pid: int | None = Field(None, description="a process in the turbine's network namespace (None: this one)")
 
 
-GRID_SCENARIO_KEYS = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov"}
+GRID_SCENARIO_KEYS = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov",
+                      "e": "e_grid"}
 """A scenario's ``plant.grid`` keys -> the fields of :class:`GridSourceSettings` (``GridParams``)."""
 
 
@@ -97,6 +98,7 @@ class GridSourceSettings(_Config):
     d_grid: float | None = Field(None, ge=0, le=100, description="load damping, p.u. power / p.u. speed")
     r_gov: float | None = Field(None, gt=0, le=1, description="governor droop, p.u. speed / p.u. power")
     t_gov: float | None = Field(None, gt=0, le=100, description="governor time constant, s")
+    e_grid: float | None = Field(None, ge=0.8, le=1.2, description="grid source EMF magnitude, p.u.")
 
     def given(self) -> dict[str, float]:
         return {k: v for k, v in self.model_dump().items() if v is not None}

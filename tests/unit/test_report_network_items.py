@@ -46,3 +46,10 @@ def test_f9net_variants_keep_the_first_n_sdviscs_as_the_offline_search_does(tmp_
     assert [e.wt for e in sc.timeline if e.do == "visc_on"] == ["wt3_1", "wt3_2", "wt3_3"]
     assert [e.value for e in sc.timeline if e.do == "scr"] == [1.51]
     assert FIRST_VISC == 20  # wt3_1: turbine 20 of the farm (clusters of ten, 0-based)
+
+
+def test_f8net_variant_sets_the_grid_emf_the_plant_reads(tmp_path):
+    path = network_runs.write_variant(tmp_path, "f8_parallel_droop", "f8_parallel_droop_from_097", {
+        "plant": lambda plant: {**plant, "grid": {**(plant.get("grid") or {}), "e": 0.97952}}})
+    sc = load_scenario(path)
+    assert sc.plant.grid.grid_params() == {"e_grid": 0.97952}
