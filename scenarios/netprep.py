@@ -3,10 +3,11 @@ switches: TX checksum offload off on every host interface (the userspace datapat
 permanent ARP entry on every addressed host for every other addressed host (what Mininet's
 ``staticArp`` does with one ``arp -s`` shell round trip per pair: 2,652 on the 52-host farm) and
 for the controller's virtual IP, and the bridges marked as the testbed's (``sdvisc`` external id,
-for the clean-up)."""
+for the clean-up), their controller connections retrying every second at most."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import tempfile
 from pathlib import Path
@@ -36,10 +37,33 @@ def prepare_hosts(hosts, controller_vip: str, controller_vmac: str) -> None:
                 host.cmd("; ".join(commands))
 
 
+CONTROLLER_MAX_BACKOFF_MS = 1000  # Open vSwitch's default, 8 s, made every auto-time-scale run wait ~5 s for
+# its switches after the calibration (they had backed off while no SDN app listened)
+
+
+def controller_uuids(listing: dict, bridges: set[str]) -> list[str]:
+    """The Controller records of ``bridges`` in ``ovs-vsctl --format=json --columns=name,controller
+    list bridge`` output (OVSDB encodes one reference as ["uuid", U], several as ["set", [...]])."""
+    out = []
+    for name, ref in listing["data"]:
+        if name not in bridges:
+            continue
+        refs = ref[1] if ref[0] == "set" else [ref]
+        out += [uuid for _kind, uuid in refs]
+    return out
+
+
 def mark_switches(switches) -> None:
-    """Every bridge of the run gets the external id ``sdvisc=1`` (one ovs-vsctl transaction)."""
+    """Every bridge of the run gets the external id ``sdvisc=1``, and its controller connections a
+    1 s reconnection back-off (one ovs-vsctl transaction)."""
+    names = {sw.name for sw in switches}
+    if not names:
+        return
+    listing = subprocess.run(["ovs-vsctl", "--format=json", "--columns=name,controller", "list", "bridge"],
+                             check=True, capture_output=True, text=True, timeout=60).stdout
     args = ["ovs-vsctl"]
-    for sw in switches:
-        args += ["--", "br-set-external-id", sw.name, "sdvisc", "1"]
-    if len(args) > 1:
-        subprocess.run(args, check=True, capture_output=True, timeout=60)
+    for name in sorted(names):
+        args += ["--", "br-set-external-id", name, "sdvisc", "1"]
+    for uuid in controller_uuids(json.loads(listing), names):
+        args += ["--", "set", "controller", uuid, f"max_backoff={CONTROLLER_MAX_BACKOFF_MS}"]
+    subprocess.run(args, check=True, capture_output=True, timeout=60)

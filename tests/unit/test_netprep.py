@@ -15,3 +15,15 @@ def test_one_permanent_entry_per_other_host_and_the_controller():
         "neigh replace 10.0.0.3 lladdr 00:00:00:00:00:03 dev sdc1-eth0 nud permanent",
         "neigh replace 10.0.0.254 lladdr 00:00:00:00:00:fe dev sdc1-eth0 nud permanent",
     ]
+
+
+def test_controller_records_of_the_runs_bridges_from_the_ovsdb_json():
+    from scenarios.netprep import controller_uuids
+
+    listing = {"headings": ["name", "controller"], "data": [
+        ["s1", ["uuid", "aaaa"]],
+        ["s2", ["set", [["uuid", "bbbb"], ["uuid", "cccc"]]]],
+        ["l1", ["set", []]],
+        ["other", ["uuid", "dddd"]],
+    ]}
+    assert controller_uuids(listing, {"s1", "s2", "l1"}) == ["aaaa", "bbbb", "cccc"]
