@@ -6,10 +6,11 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import replace
 from pathlib import Path
 
-from report.catalogue import EXPERIMENTS
-from report.registry import select
+from report.catalogue import EXPERIMENTS, QUICK_NETWORK
+from report.registry import Context, Experiment, NotRun, select
 from report.run import run_report
 
 DEFAULT_OUT = Path("results/report")
@@ -23,6 +24,19 @@ def parse(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output directory (default {DEFAULT_OUT}/)")
     ap.add_argument("--list", action="store_true", help="list the experiments and their claims, run nothing")
     return ap.parse_args(argv)
+
+
+def quick_network_subset(exp: Experiment) -> Experiment:
+    """``--quick`` without ``--only``: of the cyber-in-the-loop experiments only QUICK_NETWORK run (each
+    network run costs ~20 s of set-up plus k times its simulated window); the others say so ("not
+    run") and run with ``--only`` (also with ``--quick``) or in the full report."""
+    if exp.kind != "cyber" or exp.id in QUICK_NETWORK:
+        return exp
+
+    def skipped(ctx: Context) -> dict:
+        raise NotRun(f"--quick runs {', '.join(QUICK_NETWORK)} of the network experiments; this one runs in the "
+                     f"full report or with --only {exp.id} [--quick]")
+    return replace(exp, run=skipped)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -39,6 +53,8 @@ def main(argv: list[str] | None = None) -> int:
             for c in e.claims:
                 print(f"      {c.id:6} {c.text} [paper: {c.paper}]")
         return 0
+    if args.quick and not args.only:
+        chosen = [quick_network_subset(e) for e in chosen]
     data = run_report(chosen, args.out, args.quick, argv)
     print(f"report: {args.out}/index.html, claims.json ({data['wall_s']} s; "
           + ", ".join(f"{n} {v}" for v, n in data["summary"].items() if n) + ")")

@@ -15,3 +15,4 @@ from report.exp_weak import F7, F9
 
 EXPERIMENTS = (F1, F2, F3, F4, F5, F6, F7, F8, F9, B1, B2, F1NET, F2NET, F3NET, F4NET, F5NET, F6NET, F7NET, F8NET, F9NET,
                C1, C2, C3)  # offline first (fast, no network)
+QUICK_NETWORK = ("F1net", "C2")  # what --quick (without --only) runs through the network: one grid, one cyber case

@@ -53,3 +53,21 @@ def test_f8net_variant_sets_the_grid_emf_the_plant_reads(tmp_path):
         "plant": lambda plant: {**plant, "grid": {**(plant.get("grid") or {}), "e": 0.97952}}})
     sc = load_scenario(path)
     assert sc.plant.grid.grid_params() == {"e_grid": 0.97952}
+
+
+def test_quick_without_only_runs_two_network_experiments_and_says_why_not_the_others(tmp_path):
+    import pytest
+
+    from report.__main__ import quick_network_subset
+    from report.catalogue import EXPERIMENTS, QUICK_NETWORK
+    from report.registry import Context, NotRun
+
+    by_id = {e.id: e for e in EXPERIMENTS}
+    assert all(by_id[i].kind == "cyber" for i in QUICK_NETWORK)
+    for exp in EXPERIMENTS:
+        kept = quick_network_subset(exp)
+        if exp.kind == "offline" or exp.id in QUICK_NETWORK:
+            assert kept is exp
+        else:
+            with pytest.raises(NotRun, match=f"--only {exp.id}"):
+                kept.run(Context(out_dir=tmp_path, quick=True))
