@@ -67,3 +67,44 @@ def mark_switches(switches) -> None:
     for uuid in controller_uuids(json.loads(listing), names):
         args += ["--", "set", "controller", uuid, f"max_backoff={CONTROLLER_MAX_BACKOFF_MS}"]
     subprocess.run(args, check=True, capture_output=True, timeout=60)
+
+
+def _bridge_controllers() -> dict[str, list[str]]:
+    """Each bridge that has controllers -> their targets (in the Controller table's order)."""
+    def listing(*args: str) -> dict:
+        return json.loads(subprocess.run(["ovs-vsctl", "--format=json", *args], check=True, capture_output=True,
+                                         text=True, timeout=60).stdout)
+    bridges = listing("--columns=name,controller", "list", "bridge")
+    controllers = listing("--columns=_uuid,target", "list", "controller")
+    target = {row[0][1]: row[1] for row in controllers["data"]}
+    out = {}
+    for name, _ref in bridges["data"]:
+        uuids = controller_uuids(bridges, {name})
+        if uuids:
+            out[name] = [target[u] for u in uuids if u in target]
+    return out
+
+
+def reconnect_controllers(switches) -> None:
+    """Make the run's switches connect to their controllers now: after ``time_scale: auto``'s
+    calibration (no SDN app listened meanwhile) Open vSwitch had backed off to 8 s between attempts
+    whatever max_backoff said (measured: switches connected 5–10 s after the app listened). The
+    controllers are removed and created again (two transactions: one would keep the old
+    connections), with the same targets and back-off."""
+    names = {sw.name for sw in switches}
+    current = {b: t for b, t in _bridge_controllers().items() if b in names}
+    if not current:
+        return
+    remove = ["ovs-vsctl"]
+    create = ["ovs-vsctl"]
+    for i, (bridge, targets) in enumerate(sorted(current.items())):
+        remove += ["--", "del-controller", bridge]
+        ids = []
+        for j, tgt in enumerate(targets):
+            ids.append(f"@c{i}_{j}")
+            create += ["--", f"--id=@c{i}_{j}", "create", "controller", f'target="{tgt}"',
+                       f"max_backoff={CONTROLLER_MAX_BACKOFF_MS}"]
+        create += ["--", "set", "bridge", bridge, f"controller=[{','.join(ids)}]"]
+    subprocess.run(remove, check=True, capture_output=True, timeout=60)
+    subprocess.run(create, check=True, capture_output=True, timeout=60)
+

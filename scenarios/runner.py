@@ -24,7 +24,7 @@ from scenarios import configs
 from scenarios.calibrate import Calibration, calibration_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
-from scenarios.netprep import mark_switches, prepare_hosts
+from scenarios.netprep import mark_switches, prepare_hosts, reconnect_controllers
 from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
@@ -148,7 +148,8 @@ class Run:
             self.impairments.set_clock(self.clock_settings)
             self._say(calibration_line(self.calibration))
             phase("calibration")
-            self._start_sdn_apps(ports)  # the switches reconnect within their max_backoff (1 s)
+            self._start_sdn_apps(ports)
+            reconnect_controllers(self.net.switches)  # now, not after Open vSwitch's back-off (up to 8 s)
         self._wait_switches()
         phase("switches_connect")
 
