@@ -59,6 +59,18 @@ def write_variant(directory: Path, name: str, label: str, changes: dict) -> Path
     return path
 
 
+_chosen_k: dict[str, float] = {}  # shape -> the k its last run's calibration chose (this report process)
+
+
+def shape_of(data: dict) -> str:
+    """What a calibration depends on in a scenario: topology, sampling period, plant model, SDCs and
+    the ViSC turbines (their paths); runs of the same shape start their search at the k the last
+    one chose (``--calibrate-from``: the same smallest k, found in two or three trials)."""
+    visc = sorted({e["wt"] for e in data.get("timeline", []) if e.get("do") == "visc_on"})
+    return json.dumps([data.get("topology"), data.get("step_s"), (data.get("plant") or {}).get("model"),
+                       data.get("sdc"), visc], sort_keys=True)
+
+
 def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.ndarray]]:
     if os.geteuid() != 0:
         raise NotRun("cyber-in-the-loop runs need root (Mininet and Open vSwitch)")
@@ -67,6 +79,9 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
     out = ctx.out_dir / "runs" / name
     out.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"]
+    shape = shape_of(yaml.safe_load(path.read_text()))
+    if shape in _chosen_k:
+        cmd += ["--calibrate-from", f"{_chosen_k[shape]:g}"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
     with open(NETWORK_LOCK, "a") as lock:  # the same lock as flock(1) takes (flock(2) on the file)
         waited = time.perf_counter()
@@ -81,6 +96,8 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
         raise RuntimeError(f"{name}: the run ended with status {proc.returncode}: {tail}")
     summary = json.loads(summary_path.read_text())
     k = summary.get("time", {}).get("time_scale")
+    if summary.get("time", {}).get("calibration"):
+        _chosen_k[shape] = k
     ctx.numbers.setdefault("time_scale", {})[name] = k
     ctx.notes.append(f"{name}: time scale {k}, wall {summary.get('time', {}).get('wall_duration_s')} s, "
                      f"{summary.get('late_steps')} of {summary.get('steps')} steps late; waited {waited:.0f} s for the network "

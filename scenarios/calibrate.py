@@ -76,6 +76,26 @@ def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_busy: float,
     return out
 
 
+def search(trial, start: float | None = None, candidates: tuple = CANDIDATES) -> list[dict]:
+    """Try candidates with ``trial(k) -> {"k", "ok", …}`` until the smallest passing one is known
+    (the property is taken as monotonic in k): from the smallest upwards; or, from ``start`` (a k
+    an earlier run of the same shape chose), downwards while it passes, else upwards — the same
+    answer in two or three trials instead of up to seven."""
+    ks = list(candidates)
+    i = ks.index(start) if start in ks else 0
+    trials = [trial(ks[i])]
+    step = -1 if trials[0]["ok"] and i > 0 else 1
+    if trials[0]["ok"] and i == 0:
+        return trials
+    j = i + step
+    while 0 <= j < len(ks):
+        trials.append(trial(ks[j]))
+        if trials[-1]["ok"] != (step == -1):  # going down: stop at the first failure; up: at the first pass
+            break
+        j += step
+    return trials
+
+
 def choose(trials: list[dict]) -> tuple[float, bool]:
     """The smallest passing k among ``trials`` (each ``{"k", "ok"}``), else the largest tried;
     and whether it passed."""
@@ -189,7 +209,8 @@ class Calibration:
         return pilot
 
     def measure(self) -> dict:
-        """Pilot candidates from k = 1 upwards; returns the calibration for ``summary.json``."""
+        """Pilot candidates from k = 1 upwards (or from the run's ``calibrate_from``, see :func:`search`);
+        returns the calibration for ``summary.json``."""
         run = self.run
         hosts = run.desc["hosts"]
         setup = PilotSetup(hosts[self.sdc_host]["ip"], self.turbines,
@@ -207,11 +228,7 @@ class Calibration:
                     rxstamp.enable(sock)
                     setup.socks[wt] = sock
             self._model(setup)
-            for k in CANDIDATES:
-                trial = self._trial(setup, k)
-                trials.append(trial)
-                if trial["ok"]:
-                    break
+            trials = search(lambda k: self._trial(setup, k), getattr(run, "calibrate_from", None))
         finally:
             for sock in setup.socks.values():
                 sock.close()
@@ -227,7 +244,8 @@ class Calibration:
             if left:
                 raise RuntimeError(f"calibration: pilot rules still on {left} after removing them")
         k, met = choose(trials)
-        return {"time_scale": k, "met": met, "turbines": self.turbines, "sdc": self.sdc_host,
+        return {"time_scale": k, "met": met, "started_from": getattr(run, "calibrate_from", None),
+                "turbines": self.turbines, "sdc": self.sdc_host,
                 "limits": {"busy": BUSY_LIMIT, "round_trip_p99_sim_ms": ROUND_TRIP_LIMIT_STEPS * self.step_s * 1e3},
                 "trials": trials, "wall_s": round(time.time() - started, 2), "plant_model": run.scenario.plant.model}
 

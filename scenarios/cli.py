@@ -53,6 +53,11 @@ def _cmd_run(args) -> int:
     if args.time_scale is not None:
         scenario.time_scale = args.time_scale
     problem = _session_options(args, scenario)
+    if args.calibrate_from is not None:
+        from scenarios.calibrate import CANDIDATES
+
+        if scenario.time_scale != "auto" or args.calibrate_from not in CANDIDATES:
+            problem = f"--calibrate-from needs time_scale auto and one of {', '.join(map(str, CANDIDATES))}"
     if problem:
         print(f"sdvisc: {problem}", file=sys.stderr)
         return 1
@@ -61,7 +66,7 @@ def _cmd_run(args) -> int:
     print(f"sdvisc: running {path} -> {out}/{scaled}")
     try:
         summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path),
-                               cli_duration_s=args.cli_duration, web_port=args.web)
+                               cli_duration_s=args.cli_duration, web_port=args.web, calibrate_from=args.calibrate_from)
     except RunError as exc:
         print(f"sdvisc: {exc}", file=sys.stderr)
         return 2
@@ -169,6 +174,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--time-scale", type=_time_scale, default=None, metavar="K|auto",
                    help="wall seconds per simulated second (virtual time; overrides the scenario's time_scale); "
                         "auto: measure before t = 0 and take the smallest of 1, 2, 4 … 64 that holds")
+    p.add_argument("--calibrate-from", type=float, default=None, metavar="K",
+                   help="with auto: try K first (e.g. what an earlier run of the same shape chose), then smaller "
+                        "ones while they hold, else larger: the same k found in fewer trials")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
     p.add_argument("files", nargs="+")

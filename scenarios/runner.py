@@ -68,6 +68,7 @@ class Run:
         self.timeline_events: list[dict] = []
         self.t0: float | None = None  # the run clock's reading at t = 0 (simulated seconds)
         self.auto_time_scale = scenario.time_scale == "auto"
+        self.calibrate_from: float | None = None  # auto: the k to try first (scenarios.calibrate.search)
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
         self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
         self.teardown_wall_s: dict[str, float] = {}  # … and per teardown phase (each process's stop, mininet)
@@ -357,7 +358,8 @@ class Run:
 
 
 def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, quiet: bool = False,
-                 source: str | None = None, cli_duration_s: float | None = None, web_port: int | None = None) -> dict:
+                 source: str | None = None, cli_duration_s: float | None = None, web_port: int | None = None,
+                 calibrate_from: float | None = None) -> dict:
     """Run ``scenario``; returns the summary (also written to ``out_dir/summary.json``). With ``cli``, an
     interactive session (:mod:`scenarios.live`) that ends on ``exit`` or at ``cli_duration_s``;
     ``web_port``: its live view (:mod:`scenarios.web`)."""
@@ -375,6 +377,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
         cleanup.clean()
     previous = {s: signal.signal(s, _raise_interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
     run = Run(scenario, out, quiet=quiet)
+    run.calibrate_from = calibrate_from
     if cli:
         run.session = Session(run, cli_duration_s=cli_duration_s, web_port=web_port)
     completed = False

@@ -71,3 +71,11 @@ def test_quick_without_only_runs_two_network_experiments_and_says_why_not_the_ot
         else:
             with pytest.raises(NotRun, match=f"--only {exp.id}"):
                 kept.run(Context(out_dir=tmp_path, quick=True))
+
+
+def test_runs_of_the_same_shape_share_a_calibration_start_and_others_do_not():
+    shapes = {n: network_runs.shape_of(network_runs.load(n)) for n in
+              ("f3_voltage_step", "f4_inertia_50mw", "f8_parallel_droop", "f1_tustin_vs_hd", "f2_trapezoid_025ms")}
+    assert shapes["f3_voltage_step"] == shapes["f4_inertia_50mw"] == shapes["f8_parallel_droop"]  # cluster 3, 0.67 ms
+    assert shapes["f1_tustin_vs_hd"] != shapes["f3_voltage_step"]  # one ViSC per cluster: other paths
+    assert shapes["f2_trapezoid_025ms"] != shapes["f1_tustin_vs_hd"]  # same turbines, Ts 0.25 ms
