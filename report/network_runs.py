@@ -87,7 +87,9 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
         waited = time.perf_counter()
         fcntl.flock(lock, fcntl.LOCK_EX)
         waited = time.perf_counter() - waited
-        proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S)
+        # the run inherits the locked file: if this process dies, the run still holds the lock until it ends
+        proc = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S,
+                              pass_fds=(lock.fileno(),))
     ctx.numbers.setdefault(LOCK_WAIT_KEY, {})[name] = round(waited, 1)  # other work's network runs, not ours
     (out / "report_run.log").write_text(proc.stdout + proc.stderr)
     summary_path = out / "summary.json"
