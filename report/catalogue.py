@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from report.exp_cyber import C1, C2, C3, F1NET, F6NET, F9NET
 from report.exp_delay import B1
+from report.exp_delay_net import B1NET
 from report.exp_grid import F3, F4, F5, F6
 from report.exp_grid_net import F2NET, F3NET, F4NET, F7NET, F8NET
 from report.exp_inertia_net import F5NET
@@ -14,5 +15,5 @@ from report.exp_sdc import F1, F2
 from report.exp_weak import F7, F9
 
 EXPERIMENTS = (F1, F2, F3, F4, F5, F6, F7, F8, F9, B1, B2, F1NET, F2NET, F3NET, F4NET, F5NET, F6NET, F7NET, F8NET, F9NET,
-               C1, C2, C3)  # offline first (fast, no network)
+               B1NET, C1, C2, C3)  # offline first (fast, no network)
 QUICK_NETWORK = ("F1net", "C2")  # what --quick (without --only) runs through the network: one grid, one cyber case

@@ -50,14 +50,26 @@ def run_variant(ctx: Context, name: str, label: str, changes: dict) -> tuple[dic
 def write_variant(directory: Path, name: str, label: str, changes: dict) -> Path:
     """scenarios/paper/<name>.yaml with ``changes`` applied (see :func:`run_variant`), named
     ``label``, written to <directory>/<label>.yaml."""
-    data = load(name)
-    for key, value in changes.items():
-        data[key] = value(data[key]) if callable(value) else value
+    data = apply_changes(load(name), changes)
     data["name"] = label
     path = directory / f"{label}.yaml"
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(f"# {name} with {', '.join(changes)} changed by the report\n" + yaml.safe_dump(data, sort_keys=False))
     return path
+
+
+def apply_changes(data: dict, changes: dict) -> dict:
+    """``data`` (a scenario as plain data) with ``changes``: a callable maps the key's value, anything
+    else replaces it."""
+    data = dict(data)
+    for key, value in changes.items():
+        data[key] = value(data[key]) if callable(value) else value
+    return data
+
+
+def known_time_scale(data: dict) -> float | None:
+    """The k the calibration chose for a run of this scenario's shape earlier in this process."""
+    return _chosen_k.get(shape_of(data))
 
 
 _chosen_k: dict[str, float] = {}  # shape -> the k its last run's calibration chose (this report process)

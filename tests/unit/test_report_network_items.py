@@ -79,3 +79,22 @@ def test_runs_of_the_same_shape_share_a_calibration_start_and_others_do_not():
     assert shapes["f3_voltage_step"] == shapes["f4_inertia_50mw"] == shapes["f8_parallel_droop"]  # cluster 3, 0.67 ms
     assert shapes["f1_tustin_vs_hd"] != shapes["f3_voltage_step"]  # one ViSC per cluster: other paths
     assert shapes["f2_trapezoid_025ms"] != shapes["f1_tustin_vs_hd"]  # same turbines, Ts 0.25 ms
+
+
+def test_b1net_delays_a_link_on_every_cluster3_path_and_fixes_the_time_scale(tmp_path):
+    import networkx as nx
+
+    from report.exp_delay_net import CLUSTER3, IMPAIRED_LINK, variant
+    from topologies import topos
+
+    sc = load_scenario(network_runs.write_variant(tmp_path, "f1_tustin_vs_hd", "b1net_delay_1ms", variant(1.0, 16.0)))
+    assert sc.time_scale == 16.0 and [e.wt for e in sc.timeline if e.do == "visc_on"] == CLUSTER3
+    assert [(link.a, link.b, link.delay_ms) for link in sc.links] == [(*IMPAIRED_LINK, 0.5)]  # d/2 each way
+    assert sc.plant.record == CLUSTER3
+    no_delay = load_scenario(network_runs.write_variant(tmp_path, "f1_tustin_vs_hd", "b1net_0", variant(0.0, 16.0)))
+    assert not no_delay.links
+    topo = topos[sc.topology.name](**sc.topology.params())
+    graph = nx.Graph(topo.links())
+    for wt in CLUSTER3:
+        path = nx.shortest_path(graph, "sdc1", wt)
+        assert any({a, b} == set(IMPAIRED_LINK) for a, b in zip(path, path[1:])), path
