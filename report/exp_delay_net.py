@@ -5,7 +5,7 @@ of the real loop: F1's fault case (scenarios/paper/f1_tustin_vs_hd.yaml) with th
 cluster 3, whose MEAS and CTRL all cross the link c2–c3, and that link given a delay of d/2 in each
 direction (a link impairment element, docs/scenarios.md "Impairments": the loop sees d more per
 round trip). The offline sweep of the same case finds where v_ref goes unstable; the network runs
-the last stable and the first unstable delay. The runs use a fixed time scale (the k the
+no added delay, the last stable and the first unstable delay. The runs use a fixed time scale (the k the
 calibration chose in this report for the same network without the impairment, else 16): ``auto``
 would reject every k, since the added delay is simulated time and does not shrink with k."""
 
@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant.cosim import FaultCase, run_hd
+from plant.cosim import FaultCase, run_hd, samples_for_delay
 from report import figures, network_runs
 from report.beyond import ACCEPT_PCT, UNSTABLE_CRITERION, instability
 from report.exp_delay import DELAYS_MS, QUICK_DELAYS_MS, limits, sweep
@@ -51,7 +51,7 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
     hd = run_hd(case)
     points = sweep(case, hd, QUICK_DELAYS_MS if ctx.quick else DELAYS_MS, "v_ref")
     boundary = limits(points)["unstable"]
-    chosen = [d for d in (boundary.last_good, boundary.first_bad) if d is not None]
+    chosen = sorted({0.0} | {d for d in (boundary.last_good, boundary.first_bad) if d is not None})  # 0: the bare loop
     base = network_runs.load(NAME)
     k = network_runs.known_time_scale(network_runs.apply_changes(base, variant(0.0, 1.0))) or DEFAULT_TIME_SCALE
     seen = {}
@@ -60,7 +60,9 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
         v_hd = np.interp(ts["t"], hd["t"], hd["v_pcc"][:, 0])
         trips = summary.get("converter_trips") or {}
         why = instability(ts["t"], ts["v_pcc"], v_hd, [len(trips)])
-        seen[d] = {"ts": ts, "unstable": why, "fallbacks": summary.get("fallbacks") or {}, "trips": trips}
+        samples = {wt: summary["turbines"][wt].get("round_trip_samples", {}).get("counts", {}) for wt in CLUSTER3}
+        seen[d] = {"ts": ts, "unstable": why, "fallbacks": summary.get("fallbacks") or {}, "trips": trips,
+                   "round_trip_samples": _merged(samples)}
     offline = {p["delay_ms"]: p["unstable"] for p in points}
     fig, axes = figures.new(1, height_per_row=3.2)
     ax = axes[0, 0]
@@ -84,10 +86,27 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
     return {"B1net.a": Finding(
         text + (" — the network agrees with offline" if agree and seen else " — the network differs from offline"),
         MEASURED, f"{UNSTABLE_CRITERION}; within = {ACCEPT_PCT:g} % of the HD ViSC (B1). Network runs: "
-        + "; ".join(f"+{d:g} ms: {s['unstable'] or 'stable'}, fall-backs {s['fallbacks'] or 'none'}"
-                    for d, s in seen.items()),
+        + "; ".join(f"+{d:g} ms: {s['unstable'] or 'stable'}, fall-backs {s['fallbacks'] or 'none'}, MEAS→CTRL round "
+                    f"trip in samples (the four; offline: exactly {1 + samples_for_delay(d * 1e-3, case.step_s)}) "
+                    + _share(s["round_trip_samples"]) for d, s in seen.items())
+        + ". The network's loop is not a constant delay: its answers spread over neighbouring samples",
         {"offline_last_stable_ms": boundary.last_good, "offline_first_unstable_ms": boundary.first_bad,
-         "network_unstable": {d: s["unstable"] for d, s in seen.items()}, "time_scale": k, "agrees": agree})}
+         "network_unstable": {d: s["unstable"] for d, s in seen.items()}, "time_scale": k, "agrees": agree,
+         "round_trip_samples": {d: s["round_trip_samples"] for d, s in seen.items()}})}
+
+
+def _merged(counts: dict[str, dict[str, int]]) -> dict[int, int]:
+    """The turbines' round-trip histograms (samples -> answers) added up."""
+    out: dict[int, int] = {}
+    for hist in counts.values():
+        for n, c in hist.items():
+            out[int(n)] = out.get(int(n), 0) + int(c)
+    return dict(sorted(out.items()))
+
+
+def _share(hist: dict[int, int]) -> str:
+    total = sum(hist.values()) or 1
+    return ", ".join(f"{n}: {c / total:.1%}" for n, c in hist.items() if c / total >= 0.001) or "none"
 
 
 B1NET = Experiment("B1net", "B1 through the network: the delay limit on a real link", "— (beyond the paper)", "cyber",

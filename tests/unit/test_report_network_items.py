@@ -98,3 +98,11 @@ def test_b1net_delays_a_link_on_every_cluster3_path_and_fixes_the_time_scale(tmp
     for wt in CLUSTER3:
         path = nx.shortest_path(graph, "sdc1", wt)
         assert any({a, b} == set(IMPAIRED_LINK) for a, b in zip(path, path[1:])), path
+
+
+def test_b1net_adds_up_the_round_trip_histograms_of_the_four():
+    from report.exp_delay_net import _merged, _share
+
+    hist = _merged({"wt3_1": {"1": 120, "2": 2557}, "wt3_2": {"2": 100, "3": 3}})
+    assert hist == {1: 120, 2: 2657, 3: 3}
+    assert _share(hist) == "1: 4.3%, 2: 95.6%, 3: 0.1%"
