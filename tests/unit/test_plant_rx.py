@@ -13,7 +13,7 @@ import struct
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
 from plant import endpoint_rx
@@ -224,6 +224,8 @@ steps = st.lists(st.one_of(
 
 @FUZZ
 @given(steps)
+@example([("meas", 1), ("hostile", (request(wire.Command.STREAM_START, wt=WID, sdc_ip=wire.ip_to_i32(OTHER)), VIP)),
+          ("hostile", (ctrl(2), OTHER))])  # the controller names another SDC (a failover): its CTRL is applied
 def test_hostile_traffic_never_raises_applies_nothing_implausible_and_never_blocks_control(script):
     ep = endpoint(meas_seq=1, ctrl_seq=-1)
     ep.counts["rx_reject_internal"] = 0
@@ -231,7 +233,7 @@ def test_hostile_traffic_never_raises_applies_nothing_implausible_and_never_bloc
         if op == "meas":
             ep.meas_seq += arg
             continue
-        data, src = (ctrl(max(ep.meas_seq - arg, 0)), SDC) if op == "genuine" else arg
+        data, src = (ctrl(max(ep.meas_seq - arg, 0)), ep.sdc_addr[0]) if op == "genuine" else arg
         before = dict(ep.counts)
         ctrl_seq_before = ep.ctrl_seq
         action, msg = rx(ep, data, src=src)
@@ -239,7 +241,8 @@ def test_hostile_traffic_never_raises_applies_nothing_implausible_and_never_bloc
         changed = {k: ep.counts.get(k, 0) - before.get(k, 0) for k in set(ep.counts) | set(before)}
         changed = {k: d for k, d in changed.items() if d}
         if action == APPLY:
-            assert not changed and src == SDC and msg.type == wire.MsgType.CTRL and msg["wt"] == WID
+            # from the SDC the endpoint follows: its first, or one a STREAM_START from the controller named
+            assert not changed and src == ep.sdc_addr[0] and msg.type == wire.MsgType.CTRL and msg["wt"] == WID
             assert ctrl_seq_before < msg["meas_seq"] == ep.ctrl_seq <= ep.meas_seq
             for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q"):
                 assert math.isfinite(msg[k])
