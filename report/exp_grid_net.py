@@ -221,12 +221,16 @@ def _f7net(ctx: Context) -> dict[str, Finding]:
                  "with the SC (1.58).")
     sides = "; ".join(f"SCR {points[s]:.3f}: network {net[s].describe()}, offline {off[s].describe()}" for s in points)
     return {"F7net.a": Finding(
-        f"network stable at SCR {points['above']:.3f}: {net['above'].settled}, at {points['below']:.3f}: "
-        f"{net['below'].settled} (offline boundary {b.value:.3f}, SC {b_sc.value if b_sc.value is None else round(b_sc.value, 3)})",
+        f"network: SCR {points['above']:.3f} {_stable(net['above'])}, SCR {points['below']:.3f} {_stable(net['below'])} "
+        f"(offline boundary {b.value:.3f}, SC {'none' if b_sc.value is None else f'{b_sc.value:.3f}'})",
         verdict, f"yes = through the network stable {F7_MARGIN_SCR} above the offline SDViSC boundary (itself below the "
         f"SC's) and not stable {F7_MARGIN_SCR} below it; partly = only the first; {sides}",
         {"boundary_offline": b.value, "boundary_sc_offline": b_sc.value, "points": points,
          "network": {s: vars(x) for s, x in net.items()}, "offline": {s: vars(x) for s, x in off.items()}})}
+
+
+def _stable(s) -> str:
+    return "stable" if s.settled else "not stable"
 
 
 # ------------------------------------------------------------------------------------------- F8net

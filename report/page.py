@@ -8,6 +8,8 @@ import base64
 from html import escape
 from pathlib import Path
 
+from report.network_runs import LOCK_WAIT_KEY
+
 STYLE = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;color:#222}
 table{border-collapse:collapse;width:100%;font-size:0.88em;margin:0.6em 0}
@@ -66,8 +68,13 @@ def _experiments_table(exps: list[dict]) -> str:
     body = "".join(
         f"<tr><td><a href='#{escape(e['id'])}'>{escape(e['id'])}</a> {escape(e['title'])}</td>"
         f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']), e['status'])}"
-        f"<td>{e['wall_s']} s</td><td>{escape(_time_scale_text(e['time_scale']))}</td></tr>" for e in exps)
+        f"<td>{e['wall_s']} s{_waited(e)}</td><td>{escape(_time_scale_text(e['time_scale']))}</td></tr>" for e in exps)
     return f"<table>{head}{body}</table>"
+
+
+def _waited(exp: dict) -> str:
+    wait = sum((exp.get("numbers", {}).get(LOCK_WAIT_KEY) or {}).values())
+    return f" ({wait:.0f} s of it waiting for the network lock)" if wait >= 1 else ""
 
 
 def _lock_text(wait_s) -> str:
