@@ -50,9 +50,10 @@ def test_f9net_variants_keep_the_first_n_sdviscs_as_the_offline_search_does(tmp_
 
 def test_f8net_variant_sets_the_grid_emf_the_plant_reads(tmp_path):
     path = network_runs.write_variant(tmp_path, "f8_parallel_droop", "f8_parallel_droop_from_097", {
-        "plant": lambda plant: {**plant, "grid": {**(plant.get("grid") or {}), "e": 0.97952}}})
+        "plant": lambda plant: {**plant, "grid": {**(plant.get("grid") or {}), "e": 0.97952},
+                                "p_star": {"wt3_1": 0.0}}})
     sc = load_scenario(path)
-    assert sc.plant.grid.grid_params() == {"e_grid": 0.97952}
+    assert sc.plant.grid.grid_params() == {"e_grid": 0.97952} and sc.plant.p_star == {"wt3_1": 0.0}
 
 
 def test_quick_without_only_runs_two_network_experiments_and_says_why_not_the_others(tmp_path):
