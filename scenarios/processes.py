@@ -181,7 +181,8 @@ class Processes:
         waited = {} if waited is None else waited
         for name, proc in self.procs.items():
             code = proc.poll()
-            if code is not None and name != "plant" and not (name.endswith(".fuzz") and code == 0):
+            asked_to_stop = name in CONTROLLERS and self.controllers_stopping  # SIGTERMed at the end: exits at once
+            if code is not None and name != "plant" and not asked_to_stop and not (name.endswith(".fuzz") and code == 0):
                 self.exited_early[name] = code  # died before the end (crash, or a timeline kill)
         # the SDN app first, so the end of the plant's packets is not mistaken for a failure
         order = (["owfcc.owfcc", *CONTROLLERS, "plant"] + [n for n in self.procs if n.endswith(".sdc")]

@@ -63,3 +63,15 @@ def test_no_controller_intervals_and_stdin_commands(tmp_path):
     assert procs.no_controller == [[1.0, None]] and events[-1]["type"] == "no_controller"
     procs.stop_all()
     assert 'got {"x": 1}' in (tmp_path / "controller.log").read_text()
+
+
+def test_a_controller_that_exits_when_asked_at_the_end_did_not_exit_early(tmp_path):
+    procs = Processes(tmp_path, lambda e: None)
+    sleeper = [sys.executable, "-c", "import time; time.sleep(30)"]
+    procs.start("controller", sleeper)
+    procs.start("sdc1.sdc", [sys.executable, "-c", "raise SystemExit(3)"])  # a crash before the end
+    wait_exit(procs, "sdc1.sdc")
+    procs.stop_controllers()  # the scenario's end: SIGTERM, the SDN app exits at once
+    wait_exit(procs, "controller")
+    procs.stop_all()
+    assert procs.exited_early == {"sdc1.sdc": 3}
