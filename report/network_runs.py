@@ -92,8 +92,9 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
     out = ctx.out_dir / "runs" / name
     out.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"]
-    shape = shape_of(yaml.safe_load(path.read_text()))
-    if shape in _chosen_k:
+    data = yaml.safe_load(path.read_text())
+    shape = shape_of(data)
+    if data.get("time_scale") == "auto" and shape in _chosen_k:  # a fixed time scale is not calibrated
         cmd += ["--calibrate-from", f"{_chosen_k[shape]:g}"]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
     with open(NETWORK_LOCK, "a") as lock:  # the same lock as flock(1) takes (flock(2) on the file)
