@@ -60,6 +60,7 @@ class AckTrack:
     confirmed: int = 0
     armed: bool = True
     awaiting_path: bool = False  # rerouted; the hold is armed when the new path can deliver
+    t_started: float = float("-inf")  # the last (re)start: a loss before it never counts
     one_way_s: float = 0.0  # the turbine's AKs' one-way delay (exponential average)
 
 
@@ -88,6 +89,7 @@ class DrMonitor:
         """
         t = self.track(wt)
         t.t_loss, t.t_reported, t.fired, t.t_rearm, t.t_last_rx, t.t_last_sent = None, None, False, now, now, now
+        t.t_started = now
         t.armed = armed
         t.awaiting_path = await_path and armed
         if not armed:
@@ -179,8 +181,8 @@ class DrMonitor:
         for wt in wt_in_visc:
             t = self.track(wt)
             since = self.loss_since(wt, now, stalled=stalled, resumed=resumed)
-            if since is None or t.fired:
-                continue
+            if since is None or t.fired or since < t.t_started:
+                continue  # (a loss dated before the last (re)start belongs to the path before it)
             if self._confirmed(t, since, now, stalled, resumed):
                 t.fired = True
                 t.streak += 1

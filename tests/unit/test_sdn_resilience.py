@@ -312,3 +312,18 @@ def test_without_any_acknowledgement_the_hold_is_armed_after_the_ready_timeout()
     assert m.loss_since("wt1_1", now=1.0 + READY_TIMEOUT_S - 1e-3) is None
     m.on_ak("wt1_1", 2, 0, 1, 0.2, now=1.2, sent=1.2)
     assert m.loss_since("wt1_1", now=1.2) == pytest.approx(1.0 + READY_TIMEOUT_S)
+
+
+def test_a_loss_dated_before_the_last_restart_never_confirms_a_dr():
+    """After a partition heals (restart at 3.506) no DR may be dated before it: seen once in a full
+    test pass, a DR 8 ms after the restart carried the loss start of the partition (2.654)."""
+    m = DrMonitor(hold_s=HOLD, ak_timeout_s=0.030)
+    m.start("wt4_1", now=2.554, await_path=True)  # the reroute that found no path
+    m.start("wt4_1", now=3.506, await_path=True)  # the partition heals: a new path
+    m.path_ready("wt4_1", now=3.510)
+    track = m.tracks["wt4_1"]
+    track.t_loss, track.t_reported = 2.654, 3.512  # a loss start left from before the restart (however it got there)
+    assert m.due(["wt4_1"], now=3.515) == []
+    m.tracks["wt4_1"].t_loss = 3.511  # dated after the restart: it counts (the turbine reports it lasted the hold)
+    m.tracks["wt4_1"].t_reported = 3.560
+    assert m.due(["wt4_1"], now=3.560) == [("wt4_1", pytest.approx(3.511))]
