@@ -89,7 +89,8 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
         + "; ".join(f"+{d:g} ms: {s['unstable'] or 'stable'}, fall-backs {s['fallbacks'] or 'none'}, MEAS→CTRL round "
                     f"trip in samples (the four; offline: exactly {1 + samples_for_delay(d * 1e-3, case.step_s)}) "
                     + _share(s["round_trip_samples"]) for d, s in seen.items())
-        + ". The network's loop is not a constant delay: its answers spread over neighbouring samples",
+        + ". Where network and offline differ at the same round trip in samples, the difference is not the "
+        "sample count (why it is, is not established: e.g. when in the sample the CTRL arrives)",
         {"offline_last_stable_ms": boundary.last_good, "offline_first_unstable_ms": boundary.first_bad,
          "network_unstable": {d: s["unstable"] for d, s in seen.items()}, "time_scale": k, "agrees": agree,
          "round_trip_samples": {d: s["round_trip_samples"] for d, s in seen.items()}})}
