@@ -52,8 +52,7 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
     points = sweep(case, hd, QUICK_DELAYS_MS if ctx.quick else DELAYS_MS, "v_ref")
     boundary = limits(points)["unstable"]
     chosen = sorted({0.0} | {d for d in (boundary.last_good, boundary.first_bad) if d is not None})  # 0: the bare loop
-    base = network_runs.load(NAME)
-    k = network_runs.known_time_scale(network_runs.apply_changes(base, variant(0.0, 1.0))) or DEFAULT_TIME_SCALE
+    k = network_runs.known_time_scale(network_runs.apply_changes(sc, variant(0.0, 1.0))) or DEFAULT_TIME_SCALE
     seen = {}
     for d in chosen:
         summary, ts = network_runs.run_variant(ctx, NAME, f"b1net_delay_{d:g}ms", variant(d, k))

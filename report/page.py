@@ -8,7 +8,7 @@ import base64
 from html import escape
 from pathlib import Path
 
-from report.network_runs import LOCK_WAIT_KEY
+from report.registry import LOCK_WAIT_KEY
 
 STYLE = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;color:#222}

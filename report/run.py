@@ -13,8 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from report import machine, page
-from report.network_runs import LOCK_WAIT_KEY
-from report.registry import MEASURED, VERDICTS, Context, Experiment, Figure, Finding, NotRun
+from report.registry import LOCK_WAIT_KEY, MEASURED, VERDICTS, Context, Experiment, Figure, Finding, NotRun
 
 
 @dataclass

@@ -78,10 +78,10 @@ def _bridge_controllers() -> dict[str, list[str]]:
     controllers = listing("--columns=_uuid,target", "list", "controller")
     target = {row[0][1]: row[1] for row in controllers["data"]}
     out = {}
-    for name, _ref in bridges["data"]:
-        uuids = controller_uuids(bridges, {name})
-        if uuids:
-            out[name] = [target[u] for u in uuids if u in target]
+    for name, ref in bridges["data"]:
+        refs = ref[1] if ref[0] == "set" else [ref]
+        if refs:
+            out[name] = [target[u] for _kind, u in refs if u in target]
     return out
 
 
