@@ -370,10 +370,10 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     service = PlantService(cfg)  # builds the model (loads, or the first time compiles, its code)
     service.scheduling = raise_priority() if cfg.realtime_priority else "default"
-    if cfg.t0_wall is None and cfg.start_margin_s is not None:
+    if cfg.t0_wall is None and cfg.start_margin_wall_s is not None:
         # the runner waits for this: t = 0 is set only once the model is ready, so a slow start
         # (numba's cache loading, a first compile) does not show up as late steps
-        cfg.t0_wall = service.clock.now() + cfg.start_margin_s
+        cfg.t0_wall = service.clock.from_wall(time.time() + cfg.start_margin_wall_s)
         write_json_atomic(Path(cfg.out_dir) / "plant_ready.json", {"t0_wall": cfg.t0_wall})
     try:
         service.run()

@@ -18,7 +18,7 @@ from sdvisc.config import (
     SdcConfig,
 )
 
-START_MARGIN_S = 0.5  # t = 0 this long after the plant's model is ready
+START_MARGIN_WALL_S = 0.5  # t = 0 this many wall seconds after the plant's model is ready (was 0.5 simulated: 8 s at k = 16)
 
 
 def sdcs(sc: Scenario) -> list[tuple[str, int, str]]:
@@ -59,7 +59,7 @@ def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | N
                        turbines=turbines, model=p.model, record=p.record or sc.turbines_named(),
                        record_every=p.record_every, ak_period_s=p.ak_period_s, ak_window_s=p.ak_window_s,
                        remote_loss_fallback_s=p.remote_loss_fallback_s, remote_apply=p.remote_apply,
-                       report_loss_after_s=sc.sdn.dr_hold_s, start_margin_s=START_MARGIN_S,
+                       report_loss_after_s=sc.sdn.dr_hold_s, start_margin_wall_s=START_MARGIN_WALL_S,
                        prepare_scr=sorted({e.value for e in sc.timeline if e.do == "scr"}),
                        grid=GridSourceSettings(**(p.grid.grid_params() if p.grid else {})),
                        batteries=p.batteries.turbines if p.batteries else [],

@@ -52,6 +52,11 @@ class CheckedController(RemoteController):
     def checkListening(self):
         pass
 
+    def stop(self, *args, **kwargs):
+        """End the node's shell too (Mininet's RemoteController.stop does nothing, so the shell was
+        left to the cleanup's 1 s SIGTERM grace at every run)."""
+        self.terminate()
+
 
 def _raise_interrupt(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")

@@ -120,7 +120,9 @@ class PlantConfig(ServiceBase):
     check_rx_source: bool = Field(True, description="accept CTRL only from the SDC, REQUEST only from the SDN app")
     stdin_commands: bool = Field(True, description="read timeline commands (JSON lines) on stdin")
     t0_wall: float | None = Field(None, description="the run clock's reading at t = 0 (None: set at start-up)")
-    start_margin_s: float | None = Field(None, ge=0, description="t = 0 this long after the model is ready")
+    start_margin_wall_s: float | None = Field(None, ge=0, description=(
+        "t = 0 this many wall seconds after the model is ready (not scaled: the time the runner and the "
+        "services need to see plant_ready.json, the same at every time scale)"))
     prepare_scr: list[float] = Field(default_factory=list, description=(
         "SCR values the timeline will set: the full model factorises those network states before t = 0"))
     grid: GridSourceSettings = Field(default_factory=GridSourceSettings, description="full model: the grid source")
