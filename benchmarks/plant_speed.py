@@ -7,6 +7,9 @@ realtime_factor_*: sim_seconds / wall seconds of one uninterrupted run of step()
 ``*_4remote_applied`` also applies new references to the four remote turbines before every step
 (``apply_remote``, as the plant service does with each step's CTRL); ``cpu_us_per_step_*`` is the
 process CPU per step of that run (less disturbed by other load than the wall time).
+``*_4hd_visc_battery`` (F5: batteries on the four SDViSCs' DC links) and ``*_scr2_limiting`` (a grid of
+SCR 2 where the grid-following turbines' limiters act, as in F7/F9's searches) run the general numpy
+path: the compiled step does not cover batteries or an acting limiter.
 compute_over_step_fraction_4visc: fraction of the individual step() + measurements() calls of the
 four-hd_visc case whose own compute time exceeded step_s. That is a lower bound of the paced
 service's late fraction (it leaves out sleeping/wake-up jitter, socket I/O and catch-up).
@@ -32,7 +35,10 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 import numpy as np  # noqa: E402
 
+from plant.cases import visc_plant  # noqa: E402
 from plant.sim import Plant  # noqa: E402
+
+WEAK_SCR = 2.0  # a grid weak enough for the 50 grid-following turbines' current limiters to act
 
 
 def _rate(p: Plant, t_sim: float) -> float:
@@ -130,6 +136,13 @@ def main() -> None:
     factor, cpu_us = _rate_applied(p, np.arange(20, 24), t_sim)
     out["realtime_factor_50wt_4remote_applied"] = round(factor, 3)
     out["cpu_us_per_step_50wt_4remote_applied"] = round(cpu_us, 1)
+    # the report's other plants: F5's batteries on the four SDViSCs' DC links, and a weak grid (F7/F9's
+    # searches) where the grid-following turbines' limiters act; both leave the compiled step
+    # (plant/compiled.py covers(): no battery, no limiter acting) for the general numpy path
+    out["realtime_factor_50wt_4hd_visc_battery"] = round(_rate(visc_plant(4, battery=True), t_sim), 3)
+    p = Plant(n_turbines=50)
+    p.set_scr(WEAK_SCR)
+    out["realtime_factor_50wt_scr2_limiting"] = round(_rate(p, t_sim), 3)
     out["machine"] = {"processor": platform.processor() or platform.machine(), "cpu_count": os.cpu_count(),
                       "python": platform.python_version(), "numpy": np.__version__}
     print(json.dumps(out))

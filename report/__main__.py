@@ -55,7 +55,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     if args.quick and not args.only:
         chosen = [quick_network_subset(e) for e in chosen]
-    data = run_report(chosen, args.out, args.quick, argv)
+    data = run_report(chosen, args.out, args.quick, argv, offline_on_two_cores=True)
     print(f"report: {args.out}/index.html, claims.json ({data['wall_s']} s; "
           + ", ".join(f"{n} {v}" for v, n in data["summary"].items() if n) + ")")
     return 1 if any(e["status"] == "failed" for e in data["experiments"]) else 0

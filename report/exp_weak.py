@@ -203,7 +203,8 @@ def _fmt_n(b) -> str:
 
 F7 = Experiment("F7", "Grid strength: SCR stability boundaries (none / SC / SDViSC)", "Fig. Compare_Weak", "offline",
                 F7_CLAIMS, _f7, "", "Offline bisection on SCR; SDViSC = 4 hd_visc turbines. F7net confirms the SDViSC "
-                "boundary through the network.")
+                "boundary through the network.", keeps_for="F7net")
 F9 = Experiment("F9", "Parallel SDViSCs in a weak grid, SCR 1.51", "Fig. study2_Weak_noVSC", "offline", F9_CLAIMS, _f9,
                 "", "Offline runs with 0/3/4 SDViSCs and a binary search on their number; F9net runs the "
-                "4-SDViSC case (scenarios/paper/f9_scr151_4visc.yaml) and the search's boundary through the network.")
+                "4-SDViSC case (scenarios/paper/f9_scr151_4visc.yaml) and the search's boundary through the network.",
+                keeps_for="F9net")

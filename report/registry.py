@@ -69,6 +69,8 @@ class Experiment:
     run: Callable[[Context], dict[str, Finding]]
     command: str  # how to run it alone
     scope: str = ""  # what it runs and what it cannot (e.g. "offline only: <reason>")
+    keeps_for: str = ""  # a later experiment that reuses what this one keeps in the report's process
+    # (e.g. F7's boundary search, for F7net): it runs in that process, not in the offline worker
 
     def __post_init__(self) -> None:
         if self.kind not in ("offline", "cyber"):

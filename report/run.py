@@ -9,16 +9,16 @@ import time
 import traceback
 from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from report import machine, page
+from report import machine, offline_pool, page
 from report.registry import LOCK_WAIT_KEY, MEASURED, VERDICTS, Context, Experiment, Figure, Finding, NotRun
 
 
 @dataclass
 class Outcome:
-    experiment: Experiment
+    experiment: Experiment | None  # None: detached (as the offline worker returns it)
     status: str  # "ok", "failed", "not run"
     error: str = ""
     wall_s: float = 0.0
@@ -85,39 +85,62 @@ def summarise(rows: list[dict]) -> dict:
 
 
 def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: list[str],
-               progress: Callable[[str], None] | None = None) -> dict:
-    """Run ``experiments`` in order; claims.json and index.html are rewritten after each one (a long
-    run stopped half-way leaves a page of what finished, marked partial)."""
+               progress: Callable[[str], None] | None = None, offline_on_two_cores: bool = False) -> dict:
+    """Run ``experiments``: the offline ones first (on two cores with ``offline_on_two_cores``, see
+    :mod:`report.offline_pool`), then the others in order; claims.json and index.html are rewritten
+    after each one (a long run stopped half-way leaves a page of what finished, marked partial)."""
     progress = progress or (lambda line: print(line, flush=True))  # a line as it happens, also into a file
     out_dir.mkdir(parents=True, exist_ok=True)
     started = time.time()
     machine_before = machine.describe()
-    outcomes: list[Outcome] = []
+    outcomes: dict[int, Outcome] = {}
     data: dict = {}
-    for i, exp in enumerate(experiments, 1):
-        progress(f"report: [{i}/{len(experiments)}] {exp.id} {exp.title} ({exp.kind}) …")
-        outcome = run_one(exp, out_dir, quick)
+    n = len(experiments)
+
+    def announce(i: int) -> None:
+        exp = experiments[i]
+        progress(f"report: [{i + 1}/{n}] {exp.id} {exp.title} ({exp.kind}) …")
+
+    def done(i: int, outcome: Outcome) -> None:
+        nonlocal data
+        outcome.experiment = experiments[i]
         rows = claim_rows(outcome, quick)
-        tally = ", ".join(f"{n} {v}" for v, n in summarise(rows).items() if n)
+        tally = ", ".join(f"{c} {v}" for v, c in summarise(rows).items() if c)
         detail = f": {outcome.error.splitlines()[0]}" if outcome.error else ""
-        progress(f"report: [{i}/{len(experiments)}] {exp.id} {outcome.status} in {outcome.wall_s:.1f} s"
+        progress(f"report: [{i + 1}/{n}] {outcome.experiment.id} {outcome.status} in {outcome.wall_s:.1f} s"
                  f" ({tally or 'no claims'}){detail}")
-        outcomes.append(outcome)
+        outcomes[i] = outcome
         data = _data(outcomes, experiments, quick, argv, started, machine_before)
         (out_dir / "claims.json").write_text(json.dumps(data, indent=1, default=_jsonable))
         (out_dir / "index.html").write_text(page.render(data, out_dir))
+
+    offline = [i for i, e in enumerate(experiments) if e.kind == "offline"]
+    if offline_on_two_cores and offline_pool.worth_it(experiments, offline):
+        progress(f"report: {len(offline)} offline experiments on two cores (this process and one worker) …")
+
+        def detached(exp: Experiment) -> Outcome:
+            announce(experiments.index(exp))
+            return replace(run_one(exp, out_dir, quick), experiment=None)
+
+        offline_pool.run_offline(experiments, offline, detached, done,
+                                 lambda exp, error: Outcome(None, "failed", error=error))
+    for i, exp in enumerate(experiments):
+        if i not in outcomes:
+            announce(i)
+            done(i, run_one(exp, out_dir, quick))
     return data
 
 
-def _data(outcomes: list[Outcome], experiments: list[Experiment], quick: bool, argv: list[str], started: float,
+def _data(by_index: dict[int, Outcome], experiments: list[Experiment], quick: bool, argv: list[str], started: float,
           machine_before: dict) -> dict:
+    outcomes = [by_index[i] for i in sorted(by_index)]  # the registry's order, whatever order they finished in
     rows = [row for o in outcomes for row in claim_rows(o, quick)]
     return {
         "report_version": 1,
         "command": "python -m report " + " ".join(argv),
         "quick": quick,
         "complete": len(outcomes) == len(experiments),
-        "pending": [e.id for e in experiments[len(outcomes):]],
+        "pending": [e.id for i, e in enumerate(experiments) if i not in by_index],
         "wall_s": round(time.time() - started, 1),
         "lock_wait_s": round(sum(sum(o.numbers.get(LOCK_WAIT_KEY, {}).values()) for o in outcomes), 1),
         "machine": {"before": machine_before, "after": machine.describe()},
