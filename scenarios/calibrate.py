@@ -19,7 +19,8 @@ A candidate passes (:func:`shortfalls`) when the plant and the SDC are each at m
 :data:`BUSY_LIMIT` busy and the plant's step plus every turbine's MEAS → CTRL round trip p99 fits
 in :data:`ROUND_TRIP_LIMIT_STEPS` of a sample (in simulated time, wall / k): the issue asks for a
 one-way p99 of Ts/2 so that the answer reaches the next step; the pilot measures the round trip
-itself, the SDC's work included, and keeps half a sample for the load it leaves out. Not measured: the SDN app's
+itself, the SDC's work included, and keeps half a sample for the load it leaves out. A trial decided
+by its last per cent of samples (:func:`borderline`) is extended once to twice its steps. Not measured: the SDN app's
 and the OWFCC's CPU, the plant service's AKs, status files and recorder.
 """
 
@@ -55,6 +56,24 @@ MIN_PROBE_STEPS = 200  # … but at least this many steps (MEAS per turbine)
 PROBE_COOKIE = 0x5D5CA1E
 PROBE_COOKIE_TEXT = f"cookie={PROBE_COOKIE:#x}"
 PROBE_PRIORITY = 65000
+
+
+BORDERLINE_QUANTILES = (98.0, 99.5)
+"""A trial whose worst turbine's p98 and p99.5 round trips lie either side of the limit is decided by
+its last per cent of samples: at k = 16, 200 samples, where one stall of the machine (8–14 ms, every
+turbine at once) is two samples, it picked k = 16 or 32 for the same scenario from run to run. Such
+a trial is extended once by as many steps again and decided on all of them (p99 of twice the samples)."""
+
+
+def borderline(rtt_ms: dict[str, list[float]], budget_wall_s: float) -> bool:
+    """Whether the round trips ``rtt_ms`` (per turbine, wall ms) are too close to ``budget_wall_s`` (the
+    share of the sample left for the round trip) for a trial of this length to decide: the worst
+    turbine's p98 within the budget and its p99.5 beyond it."""
+    lists = [v for v in rtt_ms.values() if len(v)]
+    if not lists:
+        return False
+    low, high = (max(float(np.percentile(v, q)) for v in lists) * 1e-3 for q in BORDERLINE_QUANTILES)
+    return (low <= budget_wall_s) != (high <= budget_wall_s)
 
 
 def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_busy: float,
@@ -274,11 +293,34 @@ class Calibration:
     def _trial(self, setup: PilotSetup, k: float) -> dict:
         period = k * self.step_s
         steps = max(MIN_PROBE_STEPS, int(PROBE_WALL_S / period))
-        plant_s = np.empty(steps)
         rtt: dict[str, list[float]] = {wt: [] for wt in setup.turbines}
         back: dict[str, list[float]] = {wt: [] for wt in setup.turbines}
         setup.sent.clear()
         cpu0, wall0 = process_cpu_s(setup.pilot_pid), time.time()
+        plant_s = self._probe(setup, period, steps, rtt, back)
+        extended = False
+        if not shortfalls(k, self.step_s, float(np.mean(plant_s)), 0.0, None) and borderline(
+                rtt, ROUND_TRIP_LIMIT_STEPS * period - float(np.mean(plant_s))):
+            plant_s = np.concatenate([plant_s, self._probe(setup, period, steps, rtt, back)])
+            steps, extended = 2 * steps, True
+        sdc_busy = (process_cpu_s(setup.pilot_pid) - cpu0) / (time.time() - wall0)
+        per_turbine = {wt: {"round_trip_ms": delay_summary(rtt[wt]), "to_turbine_ms": delay_summary(back[wt]),
+                            "missing": steps - len(rtt[wt])} for wt in setup.turbines}
+        worst = max((np.percentile(rtt[wt], 99) for wt in setup.turbines if rtt[wt]), default=None)
+        missing = sum(r["missing"] for r in per_turbine.values())
+        plant_cost = float(np.mean(plant_s))
+        why_not = shortfalls(k, self.step_s, plant_cost, sdc_busy, None if worst is None else worst * 1e-3,
+                             missing if missing > 0.01 * steps * max(1, len(setup.turbines)) else 0)
+        return {"k": k, "steps": steps, "extended": extended, "ok": not why_not, "why_not": why_not,
+                "plant_step_us": {"mean": round(plant_cost * 1e6, 1), "p99": round(float(np.percentile(plant_s, 99)) * 1e6, 1)},
+                "plant_busy": round(plant_cost / period, 3), "sdc_busy": round(sdc_busy, 3),
+                "round_trip_p99_sim_ms": None if worst is None else round(worst / k, 4),
+                "per_turbine_wall": per_turbine}
+
+    def _probe(self, setup: PilotSetup, period: float, steps: int, rtt: dict, back: dict) -> np.ndarray:
+        """``steps`` paced steps of ``period`` wall seconds; the answers go into ``rtt``/``back``;
+        returns each step's wall seconds (drain + step + sends)."""
+        plant_s = np.empty(steps)
         start = time.perf_counter()
         for n in range(steps):
             delay = start + n * period - time.perf_counter()
@@ -290,19 +332,7 @@ class Calibration:
             plant_s[n] = time.perf_counter() - t0
         time.sleep(max(0.2, 20 * period))
         self._drain(setup, rtt, back)
-        sdc_busy = (process_cpu_s(setup.pilot_pid) - cpu0) / (time.time() - wall0)
-        per_turbine = {wt: {"round_trip_ms": delay_summary(rtt[wt]), "to_turbine_ms": delay_summary(back[wt]),
-                            "missing": steps - len(rtt[wt])} for wt in setup.turbines}
-        worst = max((np.percentile(rtt[wt], 99) for wt in setup.turbines if rtt[wt]), default=None)
-        missing = sum(r["missing"] for r in per_turbine.values())
-        plant_cost = float(np.mean(plant_s))
-        why_not = shortfalls(k, self.step_s, plant_cost, sdc_busy, None if worst is None else worst * 1e-3,
-                             missing if missing > 0.01 * steps * max(1, len(setup.turbines)) else 0)
-        return {"k": k, "steps": steps, "ok": not why_not, "why_not": why_not,
-                "plant_step_us": {"mean": round(plant_cost * 1e6, 1), "p99": round(float(np.percentile(plant_s, 99)) * 1e6, 1)},
-                "plant_busy": round(plant_cost / period, 3), "sdc_busy": round(sdc_busy, 3),
-                "round_trip_p99_sim_ms": None if worst is None else round(worst / k, 4),
-                "per_turbine_wall": per_turbine}
+        return plant_s
 
     @staticmethod
     def _drain(setup: PilotSetup, rtt: dict, back: dict) -> None:

@@ -18,8 +18,6 @@ import threading
 import time
 from pathlib import Path
 
-from mininet.node import RemoteController
-
 from scenarios import configs
 from scenarios.calibrate import Calibration, calibration_line
 from scenarios.impairments import Impairments
@@ -34,7 +32,7 @@ from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
 from sdvisc.netns import set_link_up
 from topologies import topos
-from topologies.base import TestbedSwitch, default_datapath, describe
+from topologies.base import CheckedController, TestbedSwitch, default_datapath, describe
 
 SWITCH_CONNECT_TIMEOUT_S = 30.0
 
@@ -43,19 +41,6 @@ def _free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         return s.getsockname()[1]
-
-
-class CheckedController(RemoteController):
-    """Mininet's RemoteController without its telnet probe: the runner checks the port itself, and
-    the probe can choke on the OpenFlow HELLO bytes os-ken sends back (UnicodeDecodeError)."""
-
-    def checkListening(self):
-        pass
-
-    def stop(self, *args, **kwargs):
-        """End the node's shell too (Mininet's RemoteController.stop does nothing, so the shell was
-        left to the cleanup's 1 s SIGTERM grace at every run)."""
-        self.terminate()
 
 
 def _raise_interrupt(signum, frame):

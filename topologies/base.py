@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import os
 
-from mininet.node import Host, OVSBridge, OVSSwitch
+from mininet.node import Host, OVSBridge, OVSSwitch, RemoteController
 from mininet.topo import Topo
 from mininet.util import naturalSeq
 
@@ -67,6 +67,19 @@ class L2Switch(OVSBridge):
     def __init__(self, name, **params):
         params.setdefault("datapath", default_datapath())
         super().__init__(name, **params)
+
+
+class CheckedController(RemoteController):
+    """Mininet's RemoteController without its telnet probe: the runner checks the port itself, and
+    the probe can choke on the OpenFlow HELLO bytes os-ken sends back (UnicodeDecodeError)."""
+
+    def checkListening(self):
+        pass
+
+    def stop(self, *args, **kwargs):
+        """End the node's shell too (Mininet's RemoteController.stop does nothing, so the shell was
+        left to the cleanup's 1 s SIGTERM grace at every run)."""
+        self.terminate()
 
 
 class ImpairmentHost(Host):

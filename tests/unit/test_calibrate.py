@@ -18,6 +18,7 @@ from scenarios.calibrate import (
     CANDIDATES,
     PROBE_COOKIE_TEXT,
     ROUND_TRIP_LIMIT_STEPS,
+    borderline,
     choose,
     pilot_flows,
     shortfalls,
@@ -33,6 +34,17 @@ TS = 0.67e-3
 
 def test_real_time_passes_when_everything_fits():
     assert shortfalls(1, TS, plant_step_s=0.1 * TS, sdc_busy=0.1, worst_round_trip_p99_wall_s=0.3 * TS) == []
+
+
+def test_a_trial_decided_by_its_last_per_cent_is_borderline():
+    quiet = [2.0] * 198  # ms
+    one_stall = {"wt1_1": quiet + [9.0, 8.5], "wt2_1": quiet + [9.0, 8.5]}  # one stall: the same 2 samples everywhere
+    assert borderline(one_stall, 5e-3)  # p98 2 ms within 5 ms, p99.5 ≈ 9 ms beyond: too close to call
+    assert not borderline(one_stall, 10e-3)  # within the budget either way
+    assert not borderline({"wt1_1": [6.0] * 200}, 5e-3)  # beyond it either way: the trial's verdict stands
+    slow_far_turbine = {"wt1_1": [2.0] * 200, "wt3_1": [2.0] * 190 + [6.0] * 10}  # 5 % slow: not a few samples
+    assert not borderline(slow_far_turbine, 5e-3)
+    assert not borderline({"wt1_1": []}, 5e-3)
 
 
 @pytest.mark.parametrize("k", CANDIDATES)
