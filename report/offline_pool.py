@@ -6,7 +6,7 @@ the report runs the offline part on both cores first and only then the network p
 
 An experiment with ``keeps_for`` (F7's boundary search, F9's runs: kept in this process for F7net
 and F9net) runs here; the others are shared: this process and the worker each take the next one
-when free (``shared`` in the order given). The worker is forked once, before any experiment or
+when free (the shared ones from the registry's last, the long sweeps beyond the paper, to its first). The worker is forked once, before any experiment or
 thread exists, and gets experiment *indices* (it has the same list), so nothing but the results
 crosses the pipe: an experiment's function need not be picklable. What the worker returns is the
 outcome without its experiment; a worker that dies is reported as a failure of the experiment it
@@ -39,7 +39,9 @@ def run_offline(experiments: list[Experiment], indices: list[int], run_one: Call
     this thread for each, as they finish (``run_one(exp)`` makes an outcome; ``failed(exp, error)``
     the outcome of an experiment whose worker died)."""
     here = deque(i for i in indices if experiments[i].keeps_for)
-    shared = deque(i for i in indices if not experiments[i].keeps_for)
+    # the registry's last first: the sweeps beyond the paper (B2, B1) are the longest, and a long one
+    # started last would leave the other core idle at the end
+    shared = deque(reversed([i for i in indices if not experiments[i].keeps_for]))
     lock = threading.Lock()
     results: queue.Queue = queue.Queue()
     ctx = multiprocessing.get_context("fork")

@@ -53,10 +53,11 @@ def test_offline_experiments_share_two_processes_and_the_page_keeps_the_registry
 
 
 def test_a_dead_worker_fails_only_its_experiment_and_the_rest_run_here(tmp_path, two_cores):
-    exps = [_where("A", die_in_worker=True), _where("K", 0.5, keeps_for="Knet"), _where("B"), _where("C")]
+    # the worker takes the shared ones from the registry's last: A is its first
+    exps = [_where("B"), _where("K", 0.5, keeps_for="Knet"), _where("C"), _where("A", die_in_worker=True)]
     data = run_report(exps, tmp_path, quick=False, argv=[], progress=lambda line: None, offline_on_two_cores=True)
     status = {e["id"]: e["status"] for e in data["experiments"]}
-    assert status == {"A": "failed", "K": "ok", "B": "ok", "C": "ok"}
+    assert status == {"B": "ok", "K": "ok", "C": "ok", "A": "failed"}
     error = next(e["error"] for e in data["experiments"] if e["id"] == "A")
     assert "worker process died (exit code 3)" in error
     assert set(_pids(data).values()) == {MAIN_PID}
