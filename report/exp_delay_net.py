@@ -84,7 +84,7 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
                      f"the network runs at time scale {k:g} (fixed, see the module) with c2–c3 delayed by d / 2 each way.")
     return {"B1net.a": Finding(
         text + (" — the network agrees with offline" if agree and seen else " — the network differs from offline")
-        + f" (k = {k:g}: the network's own round trip, in simulated time 1/k of its wall time, adds to d)",
+        + f" (k = {k:g}; the network's own round trip is its wall time / k in simulated time: the margin can change with k)",
         MEASURED, f"{UNSTABLE_CRITERION}; within = {ACCEPT_PCT:g} % of the HD ViSC (B1). Network runs: "
         + "; ".join(f"+{d:g} ms: {s['unstable'] or 'stable'}, fall-backs {s['fallbacks'] or 'none'}, MEAS→CTRL round "
                     f"trip in samples (the four; offline: exactly {1 + samples_for_delay(d * 1e-3, case.step_s)}) "
