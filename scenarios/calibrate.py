@@ -76,6 +76,12 @@ def borderline(rtt_ms: dict[str, list[float]], budget_wall_s: float) -> bool:
     return (low <= budget_wall_s) != (high <= budget_wall_s)
 
 
+def round_trip_budget_s(period_s: float, plant_step_s: float) -> float:
+    """Wall seconds a round trip may take at a sample period of ``period_s`` wall seconds: the share
+    :data:`ROUND_TRIP_LIMIT_STEPS` of the period less the plant's step."""
+    return ROUND_TRIP_LIMIT_STEPS * period_s - plant_step_s
+
+
 def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_busy: float,
                worst_round_trip_p99_wall_s: float | None, lost: int = 0) -> list[str]:
     """Why time scale ``k`` is not enough (empty list: it is). ``plant_step_s``: wall seconds of
@@ -86,8 +92,7 @@ def shortfalls(k: float, step_s: float, plant_step_s: float, sdc_busy: float,
         out.append(f"plant {plant_step_s / period:.0%} busy (limit {BUSY_LIMIT:.0%})")
     if sdc_busy > BUSY_LIMIT:
         out.append(f"SDC {sdc_busy:.0%} busy (limit {BUSY_LIMIT:.0%})")
-    if (worst_round_trip_p99_wall_s is not None
-            and plant_step_s + worst_round_trip_p99_wall_s > ROUND_TRIP_LIMIT_STEPS * period):
+    if worst_round_trip_p99_wall_s is not None and worst_round_trip_p99_wall_s > round_trip_budget_s(period, plant_step_s):
         out.append(f"plant step + MEAS->CTRL p99 {(plant_step_s + worst_round_trip_p99_wall_s) / k * 1e3:.3f} ms "
                    f"simulated (limit {ROUND_TRIP_LIMIT_STEPS * step_s * 1e3:.3f} ms = {ROUND_TRIP_LIMIT_STEPS:g} Ts)")
     if lost:
@@ -300,7 +305,7 @@ class Calibration:
         plant_s = self._probe(setup, period, steps, rtt, back)
         extended = False
         if not shortfalls(k, self.step_s, float(np.mean(plant_s)), 0.0, None) and borderline(
-                rtt, ROUND_TRIP_LIMIT_STEPS * period - float(np.mean(plant_s))):
+                rtt, round_trip_budget_s(period, float(np.mean(plant_s)))):
             plant_s = np.concatenate([plant_s, self._probe(setup, period, steps, rtt, back)])
             steps, extended = 2 * steps, True
         sdc_busy = (process_cpu_s(setup.pilot_pid) - cpu0) / (time.time() - wall0)

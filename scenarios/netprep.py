@@ -41,16 +41,15 @@ CONTROLLER_MAX_BACKOFF_MS = 1000  # Open vSwitch's default, 8 s, made every auto
 # its switches after the calibration (they had backed off while no SDN app listened)
 
 
+def _uuids(ref: list) -> list[str]:
+    """The UUIDs of an OVSDB reference column (one as ["uuid", U], several as ["set", [...]])."""
+    return [uuid for _kind, uuid in (ref[1] if ref[0] == "set" else [ref])]
+
+
 def controller_uuids(listing: dict, bridges: set[str]) -> list[str]:
     """The Controller records of ``bridges`` in ``ovs-vsctl --format=json --columns=name,controller
-    list bridge`` output (OVSDB encodes one reference as ["uuid", U], several as ["set", [...]])."""
-    out = []
-    for name, ref in listing["data"]:
-        if name not in bridges:
-            continue
-        refs = ref[1] if ref[0] == "set" else [ref]
-        out += [uuid for _kind, uuid in refs]
-    return out
+    list bridge`` output."""
+    return [uuid for name, ref in listing["data"] if name in bridges for uuid in _uuids(ref)]
 
 
 def mark_switches(switches) -> None:
@@ -79,9 +78,8 @@ def _bridge_controllers() -> dict[str, list[str]]:
     target = {row[0][1]: row[1] for row in controllers["data"]}
     out = {}
     for name, ref in bridges["data"]:
-        refs = ref[1] if ref[0] == "set" else [ref]
-        if refs:
-            out[name] = [target[u] for _kind, u in refs if u in target]
+        if uuids := _uuids(ref):
+            out[name] = [target[u] for u in uuids if u in target]
     return out
 
 
