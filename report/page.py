@@ -72,6 +72,15 @@ def _experiments_table(exps: list[dict]) -> str:
     return f"<table>{head}{body}</table>"
 
 
+def _offline_phase_text(phase: dict | None) -> str:
+    """The offline experiments' wall times overlap when they ran side by side: say so, with the phase's own."""
+    if not phase:
+        return ""
+    return (f"<p class='small'>The {phase['experiments']} offline experiments ran side by side on two cores (this "
+            f"process and one worker), each slower beside the other: their wall times overlap; the offline phase "
+            f"took {phase['wall_s']} s.</p>")
+
+
 def _waited(exp: dict) -> str:
     wait = sum((exp.get("numbers", {}).get(LOCK_WAIT_KEY) or {}).values())
     return f" ({wait:.0f} s of it waiting for the network lock)" if wait >= 1 else ""
@@ -129,7 +138,7 @@ def render(data: dict, out_dir: Path) -> str:
         "experiment (tolerances in report/verdicts.py: a number within 10 % of the paper's is reproduced, within "
         "35 % partly).</p>",
         "<h2>Machine and time scale</h2>", _machine(data),
-        "<h2>Experiments</h2>", _experiments_table(data["experiments"]),
+        "<h2>Experiments</h2>", _experiments_table(data["experiments"]), _offline_phase_text(data.get("offline_phase")),
         "<h2>Claims</h2>", _claims([r for r in data["claims"] if not r.get("beyond")]),
         _beyond([r for r in data["claims"] if r.get("beyond")]),
         "<h2>Figures and details</h2>",

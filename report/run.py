@@ -95,6 +95,7 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
     machine_before = machine.describe()
     outcomes: dict[int, Outcome] = {}
     data: dict = {}
+    offline_phase: dict = {}  # filled when the offline experiments ran side by side (their wall times overlap)
     n = len(experiments)
 
     def announce(i: int) -> None:
@@ -102,7 +103,6 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
         progress(f"report: [{i + 1}/{n}] {exp.id} {exp.title} ({exp.kind}) …")
 
     def done(i: int, outcome: Outcome) -> None:
-        nonlocal data
         outcome.experiment = experiments[i]
         rows = claim_rows(outcome, quick)
         tally = ", ".join(f"{c} {v}" for v, c in summarise(rows).items() if c)
@@ -110,7 +110,11 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
         progress(f"report: [{i + 1}/{n}] {outcome.experiment.id} {outcome.status} in {outcome.wall_s:.1f} s"
                  f" ({tally or 'no claims'}){detail}")
         outcomes[i] = outcome
-        data = _data(outcomes, experiments, quick, argv, started, machine_before)
+        write()
+
+    def write() -> None:
+        nonlocal data
+        data = _data(outcomes, experiments, quick, argv, started, machine_before, offline_phase)
         (out_dir / "claims.json").write_text(json.dumps(data, indent=1, default=_jsonable))
         (out_dir / "index.html").write_text(page.render(data, out_dir))
 
@@ -122,8 +126,11 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
             announce(experiments.index(exp))
             return replace(run_one(exp, out_dir, quick), experiment=None)
 
+        phase_started = time.time()
         offline_pool.run_offline(experiments, offline, detached, done,
                                  lambda exp, error: Outcome(None, "failed", error=error))
+        offline_phase.update(two_cores=True, experiments=len(offline), wall_s=round(time.time() - phase_started, 1))
+        write()
     for i, exp in enumerate(experiments):
         if i not in outcomes:
             announce(i)
@@ -132,7 +139,7 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
 
 
 def _data(by_index: dict[int, Outcome], experiments: list[Experiment], quick: bool, argv: list[str], started: float,
-          machine_before: dict) -> dict:
+          machine_before: dict, offline_phase: dict) -> dict:
     outcomes = [by_index[i] for i in sorted(by_index)]  # the registry's order, whatever order they finished in
     rows = [row for o in outcomes for row in claim_rows(o, quick)]
     return {
@@ -142,6 +149,7 @@ def _data(by_index: dict[int, Outcome], experiments: list[Experiment], quick: bo
         "complete": len(outcomes) == len(experiments),
         "pending": [e.id for i, e in enumerate(experiments) if i not in by_index],
         "wall_s": round(time.time() - started, 1),
+        "offline_phase": offline_phase or None,
         "lock_wait_s": round(sum(sum(o.numbers.get(LOCK_WAIT_KEY, {}).values()) for o in outcomes), 1),
         "machine": {"before": machine_before, "after": machine.describe()},
         "summary": summarise(rows),

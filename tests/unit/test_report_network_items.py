@@ -107,3 +107,15 @@ def test_b1net_adds_up_the_round_trip_histograms_of_the_four():
     hist = _merged({"wt3_1": {"1": 120, "2": 2557}, "wt3_2": {"2": 100, "3": 3}})
     assert hist == {1: 120, 2: 2657, 3: 3}
     assert _share(hist) == "1: 4.3%, 2: 95.6%, 3: 0.1%"
+
+
+def test_a_calibrated_run_that_did_not_hold_is_run_again_and_a_fixed_one_never():
+    from scenarios.summary import time_advice
+    late = time_advice(16, 3000, 0, {"wt1_1": 0.999, "wt3_4": 0.985})  # 1.5 % of wt3_4's answers late
+    held = time_advice(16, 3000, 20, {"wt1_1": 0.999, "wt3_4": 0.995})  # 0.7 % of steps, 0.5 % of answers
+    assert late and "wt3_4" in late and "--time-scale 32" in late and held is None
+    calibrated = {"time": {"time_scale": 16, "calibration": {"time_scale": 16, "trials": []}}}
+    fixed = {"time": {"time_scale": 16, "calibration": None}}
+    assert network_runs.did_not_hold({**calibrated, "advice": late}) == late
+    assert network_runs.did_not_hold({**calibrated, "advice": held}) is None
+    assert network_runs.did_not_hold({**fixed, "advice": late}) is None  # B1net: late on purpose
