@@ -73,6 +73,28 @@ def known_time_scale(data: dict) -> float | None:
 
 
 _chosen_k: dict[str, float] = {}  # shape -> the k its last run's calibration chose (this report process)
+_chosen_k_near: dict[str, float] = {}  # the same for the coarser key of :func:`neighbourhood_of`
+
+
+def neighbourhood_of(data: dict) -> str:
+    """Topology and sampling period only: runs that share them but not their ViSC turbines, SDCs or
+    plant still cost about the same per sample (the same switches and hop counts, the same period)."""
+    return json.dumps([data.get("topology"), data.get("step_s")], sort_keys=True)
+
+
+def calibration_start(data: dict) -> float | None:
+    """Where the calibration of an auto run starts its search (``--calibrate-from``): the k the last
+    run of its shape chose, else the k the last run of its neighbourhood chose (same topology and
+    period), else None (from k = 1). The search goes down from there while a k holds, else up, so the
+    answer is the same smallest k; the start only saves the trials below it (≈ 2 s each)."""
+    if data.get("time_scale") != "auto":
+        return None  # a fixed time scale is not calibrated
+    return _chosen_k.get(shape_of(data), _chosen_k_near.get(neighbourhood_of(data)))
+
+
+def remember_calibration(data: dict, k: float) -> None:
+    _chosen_k[shape_of(data)] = k
+    _chosen_k_near[neighbourhood_of(data)] = k
 
 
 def shape_of(data: dict) -> str:
@@ -95,10 +117,8 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
         raise NotRun("cyber-in-the-loop runs need Open vSwitch (./testbed sets it up)")
     out = ctx.out_dir / "runs" / name
     data = yaml.safe_load(path.read_text())
-    shape = shape_of(data)
-    extra = []
-    if data.get("time_scale") == "auto" and shape in _chosen_k:  # a fixed time scale is not calibrated
-        extra = ["--calibrate-from", f"{_chosen_k[shape]:g}"]
+    start = calibration_start(data)
+    extra = [] if start is None else ["--calibrate-from", f"{start:g}"]
     summary = _attempt(ctx, path, name, out, extra)
     k = summary.get("time", {}).get("time_scale")
     if did_not_hold(summary):
@@ -111,9 +131,9 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
                          f"run again at {2 * k:g}; the first attempt is in {held_not}")
         summary = _attempt(ctx, path, name, out, ["--time-scale", f"{2 * k:g}"])
         k = summary.get("time", {}).get("time_scale")
-        _chosen_k[shape] = k  # the next run of this shape starts its search where this one held
+        remember_calibration(data, k)  # the next run of this shape starts its search where this one held
     elif summary.get("time", {}).get("calibration"):
-        _chosen_k[shape] = k
+        remember_calibration(data, k)
     ctx.numbers.setdefault("time_scale", {})[name] = k
     ctx.notes.append(f"{name}: time scale {k}, wall {summary.get('time', {}).get('wall_duration_s')} s, "
                      f"{summary.get('late_steps')} of {summary.get('steps')} steps late; output {out}")

@@ -82,6 +82,20 @@ def test_runs_of_the_same_shape_share_a_calibration_start_and_others_do_not():
     assert shapes["f2_trapezoid_025ms"] != shapes["f1_tustin_vs_hd"]  # same turbines, Ts 0.25 ms
 
 
+def test_a_new_shape_starts_its_search_where_a_run_of_the_same_topology_and_period_held(monkeypatch):
+    monkeypatch.setattr(network_runs, "_chosen_k", {})
+    monkeypatch.setattr(network_runs, "_chosen_k_near", {})
+    f1, f3, f4, f2 = (network_runs.load(n) for n in ("f1_tustin_vs_hd", "f3_voltage_step", "f4_inertia_50mw",
+                                                     "f2_trapezoid_025ms"))
+    assert network_runs.calibration_start(f1) is None  # nothing known: from k = 1
+    network_runs.remember_calibration(f1, 16.0)
+    assert network_runs.calibration_start(f3) == 16.0  # other turbines, same farm and period
+    assert network_runs.calibration_start(f2) is None  # Ts 0.25 ms: nothing known
+    network_runs.remember_calibration(f3, 32.0)
+    assert network_runs.calibration_start(f4) == 32.0 and network_runs.calibration_start(f1) == 16.0  # own shape first
+    assert network_runs.calibration_start({**f4, "time_scale": 8}) is None  # a fixed k is not calibrated
+
+
 def test_b1net_delays_a_link_on_every_cluster3_path_and_fixes_the_time_scale(tmp_path):
     import networkx as nx
 
