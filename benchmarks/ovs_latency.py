@@ -35,6 +35,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 import numpy as np  # noqa: E402
 from mininet.net import Mininet  # noqa: E402
 
+from scenarios import switch_ports  # noqa: E402
+from scenarios.switch_ports import SWITCH_PORT_TYPES  # noqa: E402
 from sdvisc import cleanup  # noqa: E402
 from sdvisc.netns import set_link_up  # noqa: E402
 from topologies.base import TestbedSwitch, default_datapath  # noqa: E402
@@ -85,19 +87,7 @@ def stats(values: list[float]) -> dict:
                 "max": round(float(v.max()), 3), "min": round(float(v.min()), 3)} if len(v) else {})}
 
 
-PORT_TYPES = ("system", "afxdp-nonpmd", "afxdp")
-
-
-def ensure_bpffs() -> None:
-    """AF_XDP ports need the BPF file system (mounted once per boot)."""
-    if subprocess.run(["mountpoint", "-q", "/sys/fs/bpf"]).returncode != 0:
-        subprocess.run(["mount", "-t", "bpf", "bpf", "/sys/fs/bpf"], check=True, capture_output=True)
-
-
-def set_port_type(intf: str, port_type: str) -> None:
-    """Make the switch side of a veth an ``afxdp``/``afxdp-nonpmd`` port (or back to ``system``)."""
-    kind = '""' if port_type == "system" else port_type  # the empty type is a system port
-    subprocess.run(["ovs-vsctl", "set", "Interface", intf, f"type={kind}"], check=True, capture_output=True)
+PORT_TYPES = SWITCH_PORT_TYPES
 
 
 def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
@@ -117,17 +107,9 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
         for h in hosts:
             h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
         port = {h.name: s1.ports[s1.connectionsTo(h)[0][0]] for h in hosts}
-        if port_type != "system":
-            ensure_bpffs()
-            for h in hosts:
-                set_port_type(s1.connectionsTo(h)[0][0].name, port_type)
-            time.sleep(1.0)
-            for h in hosts:  # Open vSwitch accepts the type and reports a refusal in the error column
-                name = s1.connectionsTo(h)[0][0].name
-                got = subprocess.run(["ovs-vsctl", "get", "Interface", name, "type", "error"],
-                                     capture_output=True, text=True).stdout.split("\n")
-                if got[0].strip().strip('"') != port_type or got[1].strip() not in ("[]", ""):
-                    raise RuntimeError(f"{name}: Open vSwitch did not open it as {port_type}: {got}")
+        ports_used = switch_ports.use(switch_ports.port_names([s1]), port_type)
+        if ports_used.get("refused"):
+            raise RuntimeError(f"Open vSwitch did not open the ports as {port_type}: {ports_used['refused']}")
         cpu_before = ovs_cpu_s()
         ofctl("add-flow", "s1", "priority=1,arp,actions=FLOOD")
         for k in range(load):  # background streams h(4+2k) -> h(5+2k)

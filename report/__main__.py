@@ -9,6 +9,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
+from report import network_runs
 from report.catalogue import EXPERIMENTS, QUICK_NETWORK
 from report.registry import Context, Experiment, NotRun, select
 from report.run import run_report
@@ -22,6 +23,9 @@ def parse(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("--only", default=None, metavar="IDS",
                     help="comma-separated experiments, e.g. F4,C2 (known: " + ",".join(e.id for e in EXPERIMENTS) + ")")
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output directory (default {DEFAULT_OUT}/)")
+    ap.add_argument("--switch-ports", choices=("system", "afxdp", "afxdp-nonpmd"), default=None,
+                    help="the switch side of every link in the network runs (default: each scenario's, system); "
+                         "afxdp: hops ~10x cheaper, one core spun by Open vSwitch (docs/report.md, Time)")
     ap.add_argument("--list", action="store_true", help="list the experiments and their claims, run nothing")
     return ap.parse_args(argv)
 
@@ -53,6 +57,7 @@ def main(argv: list[str] | None = None) -> int:
             for c in e.claims:
                 print(f"      {c.id:6} {c.text} [paper: {c.paper}]")
         return 0
+    network_runs.SWITCH_PORTS = args.switch_ports
     if args.quick and not args.only:
         chosen = [quick_network_subset(e) for e in chosen]
     data = run_report(chosen, args.out, args.quick, argv, offline_on_two_cores=True)

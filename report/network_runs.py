@@ -31,8 +31,13 @@ def scenario_path(name: str) -> Path:
     return PAPER_SCENARIOS / f"{name}.yaml"
 
 
+SWITCH_PORTS: str | None = None
+"""``--switch-ports`` for every run (``python -m report --switch-ports afxdp``); None: each scenario's own."""
+
+
 def command(name: str) -> str:
-    return f"./testbed run scenarios/paper/{name}.yaml"
+    ports = f" --switch-ports {SWITCH_PORTS}" if SWITCH_PORTS else ""
+    return f"./testbed run scenarios/paper/{name}.yaml{ports}"
 
 
 def run(ctx: Context, name: str) -> tuple[dict, dict[str, np.ndarray]]:
@@ -135,6 +140,7 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
     elif summary.get("time", {}).get("calibration"):
         remember_calibration(data, k)
     ctx.numbers.setdefault("time_scale", {})[name] = k
+    ctx.numbers.setdefault("switch_ports", {})[name] = (summary.get("switch_ports") or {}).get("used", "system")
     ctx.notes.append(f"{name}: time scale {k}, wall {summary.get('time', {}).get('wall_duration_s')} s, "
                      f"{summary.get('late_steps')} of {summary.get('steps')} steps late; output {out}")
     return summary, read_timeseries(out / "timeseries.csv")
@@ -153,6 +159,8 @@ def _attempt(ctx: Context, path: Path, name: str, out: Path, extra: list[str]) -
     """One ``sdvisc run`` of ``path`` into ``out`` under the network lock; its summary."""
     out.mkdir(parents=True, exist_ok=True)
     cmd = [sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet", *extra]
+    if SWITCH_PORTS:
+        cmd += ["--switch-ports", SWITCH_PORTS]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(p for p in (str(ROOT), os.environ.get("PYTHONPATH")) if p))
     with open(NETWORK_LOCK, "a") as lock:  # the same lock as flock(1) takes (flock(2) on the file)
         waited = time.perf_counter()

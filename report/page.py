@@ -33,7 +33,17 @@ def _machine(data: dict) -> str:
             f"load average (1, 5, 15 min) {b['load_average']} at the start, {a['load_average']} at the end; "
             f"written {escape(a['written'])}; the whole report took {data['wall_s']} s"
             f"{_lock_text(data.get('lock_wait_s'))}"
-            f"{' (--quick: coarser searches, shorter windows)' if data['quick'] else ''}.</p>")
+            f"{' (--quick: coarser searches, shorter windows)' if data['quick'] else ''}."
+            f"{_switch_ports_text(data)}</p>")
+
+
+def _switch_ports_text(data: dict) -> str:
+    """Which switch ports the network runs had (scenarios/switch_ports.py): it sets their hop cost."""
+    used = sorted({kind for e in data["experiments"] for kind in (e.get("numbers", {}).get("switch_ports") or {}).values()})
+    if not used:
+        return ""
+    return (f" Switch ports of the network runs: {escape(', '.join(used))} (system: polled by ovs-vswitchd's main "
+            "thread; afxdp: a PMD thread spinning one core).")
 
 
 def _claims(rows: list[dict]) -> str:

@@ -52,6 +52,8 @@ def _cmd_run(args) -> int:
         scenario.capture.pcap = True
     if args.time_scale is not None:
         scenario.time_scale = args.time_scale
+    if args.switch_ports is not None:
+        scenario.switch_ports = args.switch_ports
     problem = _session_options(args, scenario)
     if args.calibrate_from is not None:
         from scenarios.calibrate import CANDIDATES
@@ -177,6 +179,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--calibrate-from", type=float, default=None, metavar="K",
                    help="with auto: try K first (e.g. what an earlier run of the same shape chose), then smaller "
                         "ones while they hold, else larger: the same k found in fewer trials")
+    p.add_argument("--switch-ports", choices=("system", "afxdp", "afxdp-nonpmd"), default=None,
+                   help="the switch side of every link (overrides the scenario's switch_ports): system, or AF_XDP "
+                        "(afxdp: a PMD thread spins one core, hops ~10x cheaper; falls back to system where refused)")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
     p.add_argument("files", nargs="+")

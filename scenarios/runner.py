@@ -18,7 +18,7 @@ import threading
 import time
 from pathlib import Path
 
-from scenarios import configs
+from scenarios import configs, switch_ports
 from scenarios.calibrate import Calibration, calibration_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
@@ -60,6 +60,7 @@ class Run:
         self.auto_time_scale = scenario.time_scale == "auto"
         self.calibrate_from: float | None = None  # auto: the k to try first (scenarios.calibrate.search)
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
+        self.switch_ports: dict = {}  # scenarios.switch_ports.use: requested, used, refused
         self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
         self.teardown_wall_s: dict[str, float] = {}  # … and per teardown phase (each process's stop, mininet)
         self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
@@ -129,6 +130,10 @@ class Run:
         self.net.start()
         phase("switches_start")
         mark_switches(self.net.switches)
+        self.switch_ports = switch_ports.use(switch_ports.port_names(self.net.switches), sc.switch_ports)
+        if self.switch_ports.get("refused"):
+            self._say(f"sdvisc: {sc.switch_ports} switch ports refused ({self.switch_ports['refused']}): using system ports")
+        phase("switch_ports")
         prepare_hosts(self.net.hosts, CONTROLLER_VIP, CONTROLLER_VMAC)
         phase("hosts_prepare")
         self.impairments.start(self)

@@ -325,6 +325,9 @@ class Scenario(Strict):
     time_scale: Annotated[float, Field(ge=1.0, le=1000.0)] | Literal["auto"] = Field(
         1.0, description="wall seconds per simulated second (virtual time: every component k times slower, the "
                          "network k times faster); 1 = real time; auto = measured before t = 0 (scenarios.calibrate)")
+    switch_ports: Literal["system", "afxdp", "afxdp-nonpmd"] = Field(
+        "system", description="the switch side of every link: system (AF_PACKET, ovs-vswitchd's main thread) or "
+                              "AF_XDP (afxdp: a PMD thread spinning one core, ~10x cheaper hops; scenarios/switch_ports.py)")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)
