@@ -24,7 +24,10 @@ V_dc,base (the battery floats on the DC link at the initial SOC: no current at r
 
 The SOC changes by at most 4.5 C x 0.67 ms = 8e-7 per step: it is not part of the fast state but
 updated once per plant step (``count``, forward Euler on the battery current of the step's first
-stage, which ``Plant.step`` has evaluated anyway) and held within the step. The error of that
+stage, which ``Plant.step`` has evaluated anyway) and held within the step (the numpy and the
+compiled path alike: ``after_step`` gives the next step's SOC before the step is taken, the
+compiled step evaluates its second stage at the held SOC and the state it reaches at the next
+one). The error of that
 against the exact charge is below h/2 |di_b| / Q per step (|di_b| the current's change over the
 step), i.e. < 1e-6 SOC over a whole transient; a constant current is counted exactly. The SOC
 limits act on the SOC at the step's start, so a limit is passed by at most i_max h / Q (< 1e-6).
@@ -38,9 +41,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from plant import turbine_laws as laws
 from plant.params import BatteryParams, TurbineParams
-
-SOC_FLOOR = 1e-3  # E_cell has K (1 - SOC)/SOC: evaluated no lower than this
 
 
 class BatteryBank:
@@ -68,9 +70,11 @@ class BatteryBank:
 
     def cell_ocv(self, soc):
         """E_cell(SOC), V (Tremblay-Dessaint, no current)."""
-        e0, k, a, bq = self._cell
-        s = np.maximum(soc, SOC_FLOOR)
-        return e0 - k * (1.0 - s) / s + a * np.exp(-bq * (1.0 - s))
+        return laws.cell_ocv(soc, *self._cell)
+
+    def cell_constants(self) -> tuple[float, float, float, float]:
+        """(E0, K, A, B Q_c): the constants of ``turbine_laws.cell_ocv``."""
+        return self._cell
 
     def ocv(self, soc):
         """Pack open-circuit voltage, p.u. of the DC base."""
@@ -78,18 +82,20 @@ class BatteryBank:
 
     def current(self, vdc, on):
         """Battery current into the DC link (p.u., + = discharging) of the turbines where ``on``."""
-        i = np.clip((self.ocv(self.soc) - vdc) / self.r, -self.i_chg_max, self.i_dis_max)
-        blocked = ((i > 0.0) & (self.soc <= self.p.soc_min)) | ((i < 0.0) & (self.soc >= self.p.soc_max))
-        return np.where(on & ~blocked, i, 0.0)
+        return laws.battery_current(self.ocv(self.soc), vdc, self.soc, on, *self.current_constants())
+
+    def current_constants(self) -> tuple[float, float, float, float, float]:
+        """(r_b, i_dis_max, i_chg_max, soc_min, soc_max): the constants of ``turbine_laws.battery_current``."""
+        return self.r, self.i_dis_max, self.i_chg_max, self.p.soc_min, self.p.soc_max
 
     def dc_link_pole(self, tau_dc: float) -> float:
         """c = 1/(tau_dc r_b): minus the battery's eigenvalue of w = v_dc^2 at v_dc = OCV, 1/s."""
         return 1.0 / (tau_dc * self.r)
 
-    def count(self, i, vdc, h: float) -> None:
-        """Advance SOC and delivered energy by one step h (s) at battery current i (p.u.)."""
-        self.soc -= i * (h / self.q)
-        self.energy += vdc * i * h
+    def after_step(self, i, vdc, h: float):
+        """(SOC, delivered energy) after one step h (s) at battery current i (p.u.): new arrays;
+        ``Plant`` stores them when it has taken the step."""
+        return self.soc - i * (h / self.q), self.energy + vdc * i * h
 
     def energy_mwh(self):
         return self.energy * (self.s_rated_mva / 3600.0)

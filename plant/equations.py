@@ -8,14 +8,16 @@ hd_visc turbines (sdc_unit.law) and, on request, ``aux``, the algebraic results 
 
 Two implementations of the same equations (docs/plant.md):
 
-* compiled (plant/kernels.py via plant/compiled.py): the usual case, including hd_visc turbines,
-  whose law (sdc_unit.law_kernels, compiled by sdc_unit.law_jit) runs between the network solve
-  and the rest of the right-hand side (plant/visc_kernels.py); with ``Plant.compiled_law = False``
-  the law runs in numpy (``sdc_unit.law``) between two kernels instead, the reference of the
-  compiled law in tests/unit/test_plant_jit.py;
-* general (``_rhs_general`` + ``TurbineBank.rhs`` + ``Condenser.rhs``): every limiter, batteries,
-  unplugged turbines, the slow terms evaluated at every stage (``rhs_real``), ``jit=False``. It is
-  the reference of the compiled path for these branches (tests/unit/test_plant_jit.py).
+* compiled (plant/kernels.py via plant/compiled.py): the usual case, every limiter and the
+  DC-link batteries included, and hd_visc turbines, whose law (sdc_unit.law_kernels, compiled by
+  sdc_unit.law_jit) runs between the network solve and the rest of the right-hand side
+  (plant/visc_kernels.py); with ``Plant.compiled_law = False`` the law runs in numpy
+  (``sdc_unit.law``) between two kernels instead, the reference of the compiled law in
+  tests/unit/test_plant_jit.py;
+* general (``_rhs_general`` + ``TurbineBank.rhs`` + ``Condenser.rhs``): unplugged turbines, the
+  slow terms evaluated at every stage (``rhs_real``), ``jit=False``. It is the reference of the
+  compiled path (tests/unit/test_plant_jit.py, test_plant_limits.py). The limiters and the
+  battery current are written once for both (plant/turbine_laws.py).
 """
 
 from __future__ import annotations
@@ -37,23 +39,19 @@ class RightHandSide:
     def _evaluate(self, X, xl, want_aux: bool = False):
         """(dX, dxl, aux or None) of state X and law state xl."""
         if self._compiled is not None and self._compiled.covers(self.tb, self.net):
-            r = self._evaluate_compiled(X, xl, want_aux)
-            if r is not None:
-                return r
+            return self._evaluate_compiled(X, xl, want_aux)
         return self._rhs_general(X, xl, want_aux)
 
     def _evaluate_compiled(self, X, xl, want_aux: bool):
         compiled = self._compiled
         if not self.visc_idx.size:
-            r = compiled.evaluate(X, self.tb, self._v_pcc_last)
-            return None if r is None else (r[0], None, r[1] if want_aux else None)
+            dX, aux = compiled.evaluate(X, self.tb, self._v_pcc_last)
+            return dX, None, aux if want_aux else None
         if self.compiled_law:
             return compiled.evaluate_visc(X, xl, self.tb, self._v_pcc_last, *self._law_arrays(), want_aux)
         node_v, sources = compiled.solve_network(X, self._v_pcc_last)
         v_ext, dxl, law_out = self._visc(self.layout.turbines(X), node_v[: self.n], xl, self.tb.v_hold)
         r = compiled.evaluate_given_network(X, node_v, sources, self.tb, v_ext, want_aux)
-        if r is None:
-            return None
         if want_aux:
             r[1]["law_out"] = law_out
         return r[0], dxl, r[1]

@@ -2,19 +2,23 @@
 
 This is the implementation of the usual case: the reduced network solve, the turbines with the
 held slow terms (grid-following, remote with v_ref or i_ref, and hd_visc turbines whose converter
-voltage the law supplies), the synchronous condenser, the grid source and the PCC PLL, and the
-whole ETD2 step around them (plant/integrator.py). Where a limiter would act (V_d floor /
-grid-following current limit, modulation limit, MSC power clip, braking chopper) a kernel returns
-False (or a code) and the plant evaluates that state with the general numpy path
-(plant/equations.py, turbine.py, condenser.py), which also covers batteries, unplugged turbines
-and slow terms evaluated at every stage. The equations are those of docs/plant.md.
+voltage the law supplies; every limiter and the DC-link batteries, plant/turbine_kernels.py), the
+synchronous condenser, the grid source and the PCC PLL, and the whole ETD2 step around them
+(plant/integrator.py). The general numpy path (plant/equations.py, turbine.py, condenser.py)
+evaluates what is left: unplugged turbines and slow terms evaluated at every stage. The equations
+are those of docs/plant.md.
+
+The entry points (``_entries``) are cached on disk with a closure key over the sources they
+compile in (``sdc_unit.law_jit.source_key``, as in plant/visc_kernels.py): an edit of any of those
+files recompiles them; the functions they call are not cached themselves.
 
 Arguments, by name: ``X`` the complex state (plant/layout.py), ``constants`` (slots ``Const``),
 ``slow`` the held slow terms (rows ``Slow``, N columns), ``mode``/``v_ext``/``i_hold`` the turbine
 modes, converter-voltage references (held remote references or the law's) and held current
 references, ``z_planes`` the real and imaginary planes of ``Network.zred``, transposed,
 ``node_v`` the reduced node voltages [turbine terminals, PCC, SC], ``rows`` the per-turbine real
-results (slots ``Row``), ``scalars`` the complex scalars (slots ``Scalar``).
+results (slots ``Row``), ``scalars`` the complex scalars (slots ``Scalar``), ``battery``/``soc``
+the turbines whose battery is connected and their held states of charge.
 
 ``out`` of ``evaluate``/``step``: one complex buffer [X+ (size) | dX (size) | node_v (N + 2) |
 scalars]; see ``split``.
@@ -28,16 +32,19 @@ import math
 import numpy as np
 from numba import njit
 
+from plant import condenser, integrator, layout, slots, turbine, turbine_kernels, turbine_laws
 from plant.condenser import DELTA, ED2, EFD, EQ1, EQ2, OMEGA, XLL
 from plant.condenser import NX as SC_NX
 from plant.integrator import etd2_correct, etd2_predict
 from plant.layout import GRID_ANGLE, GRID_NX, GRID_PM, GRID_SPEED, PLL_ANGLE, PLL_INTEGRATOR
-from plant.slots import Const, Row, Scalar, Slow
-from plant.turbine import GFL, IF, NS, REMOTE, TH, WR, XB, XD, XI, XP, B, W
+from plant.slots import Const, Scalar, Slow
+from plant.turbine import IF, NS, WR, XB, B
+from plant.turbine_kernels import turbines_rhs
+from sdc_unit.law_jit import source_key
 from sdvisc.vocabulary import OMEGA0
 
 N_SCALARS = len(Scalar)
-_OPTS = dict(cache=True, error_model="numpy")  # IEEE division as in numpy
+_OPTS = dict(error_model="numpy")  # IEEE division as in numpy (cached: the entry points of _entries)
 
 
 @njit(**_OPTS)
@@ -80,81 +87,6 @@ def solve_network(X, v_load, constants, z_planes, node_v):
     for r in range(m):
         node_v[r] = complex(v_re[r], v_im[r])
     return e_grid, e_sc, i_load
-
-
-@njit(inline="always", **_OPTS)
-def _write_rows(rows, j, v, i, v_dc, omega_meas, p_me, v_conv):
-    rows[Row.v_d, j] = v.real
-    rows[Row.v_q, j] = v.imag
-    rows[Row.i_d, j] = i.real
-    rows[Row.i_q, j] = i.imag
-    rows[Row.p, j] = v.real * i.real + v.imag * i.imag
-    rows[Row.q, j] = v.imag * i.real - v.real * i.imag
-    rows[Row.v_dc, j] = v_dc
-    rows[Row.omega_meas, j] = omega_meas
-    rows[Row.p_me, j] = p_me
-    rows[Row.v_conv_re, j] = v_conv.real
-    rows[Row.v_conv_im, j] = v_conv.imag
-
-
-@njit(**_OPTS)
-def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, dX, rows, want):
-    """Turbine derivatives into dX (and, ``want``, ``rows``); False if a limiter would act."""
-    n = slow.shape[1]
-    w0_over_lf, w0_rf_over_lf = constants[Const.w0_over_lf], constants[Const.w0_rf_over_lf]
-    w0_kp_pll, kp_pll, ki_pll = constants[Const.w0_kp_pll], constants[Const.kp_pll], constants[Const.ki_pll]
-    m_max, v_dc_ref = constants[Const.m_max], constants[Const.v_dc_ref]
-    kp_dc, ki_dc, two_over_tau_dc = constants[Const.kp_dc], constants[Const.ki_dc], constants[Const.two_over_tau_dc]
-    p_me_min, v_chop = constants[Const.p_me_min], constants[Const.v_chop]
-    vd_ok, kpc, kic = constants[Const.vd_ok], constants[Const.kpc], constants[Const.kic]
-    j_lf = complex(0.0, constants[Const.lf])
-    z_filter = complex(constants[Const.rf], constants[Const.lf])
-    remote_i_ref = constants[Const.remote_i_ref] != 0.0
-    for j in range(n):
-        v = node_v[j]
-        i = X[IF * n + j]
-        theta = X[TH * n + j].real
-        x_pll = X[XP * n + j].real
-        to_pll = complex(math.cos(theta), -math.sin(theta))  # e^{-j theta}
-        v_pll = v * to_pll
-        v_d = v_pll.real
-        if vd_ok - v_d > 0.0:  # V_d floor / grid-following current limit
-            return False
-        e_v = v_pll.imag / math.sqrt(v.real * v.real + v.imag * v.imag)
-        j_lf_i = j_lf * i
-        if mode[j] != GFL:  # remote / hd_visc: v_conv given, current-PI integrator frozen
-            if remote_i_ref and mode[j] == REMOTE:  # local loop on the received current reference
-                i_ref = i_hold[j]
-                v_conv = v + z_filter * i_ref + kpc * (i_ref - i)
-            else:
-                v_conv = v_ext[j]
-            g = v_conv - v - j_lf_i
-            e_i = 0j
-        else:
-            e_i = complex(slow[Slow.s_ref_re, j] / v_d, slow[Slow.s_ref_im, j] / v_d) - i * to_pll
-            g = (kpc * e_i + kic * X[XI * n + j]) * to_pll.conjugate()
-            v_conv = v + j_lf_i + g
-        v_dc = math.sqrt(max(X[W * n + j].real, 1e-4))
-        if math.sqrt(v_conv.real * v_conv.real + v_conv.imag * v_conv.imag) - m_max * v_dc > 0.0:
-            return False  # modulation limit
-        e_dc = v_dc_ref - v_dc
-        p_me = kp_dc * e_dc + X[XD * n + j].real
-        if p_me - slow[Slow.p_avail, j] > 0.0 or p_me_min - p_me > 0.0 or v_dc - v_chop > 0.0:
-            return False  # MSC power clip, chopper
-        p_conv = v_conv.real * i.real + v_conv.imag * i.imag
-        dX[IF * n + j] = complex(w0_over_lf * g.real - w0_rf_over_lf * i.real,
-                                 w0_over_lf * g.imag - w0_rf_over_lf * i.imag)
-        dX[XI * n + j] = e_i
-        dX[TH * n + j] = w0_kp_pll * e_v + OMEGA0 * x_pll
-        dX[XP * n + j] = ki_pll * e_v
-        dX[W * n + j] = two_over_tau_dc * p_me - two_over_tau_dc * p_conv
-        dX[XD * n + j] = ki_dc * e_dc
-        dX[WR * n + j] = slow[Slow.p_aero_over_2hw, j] - p_me * slow[Slow.inv_2hw, j]
-        dX[B * n + j] = slow[Slow.d_beta, j]
-        dX[XB * n + j] = slow[Slow.d_xbeta, j]
-        if want:
-            _write_rows(rows, j, v, i, v_dc, (kp_pll * e_v + x_pll) + 1.0, p_me, v_conv)
-    return True
 
 
 @njit(**_OPTS)
@@ -210,11 +142,10 @@ def grid_and_pll_rhs(X, o, v_pcc, e_grid, constants, dX):
 
 
 @njit(**_OPTS)
-def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, dX, rows, scalars, want):
-    """dX of state X whose network solve is ``node_v`` with ``sources`` (solve_network); False if a
-    limiter would act (dX incomplete)."""
-    if not turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, dX, rows, want):
-        return False
+def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars,
+                      want):
+    """dX of state X whose network solve is ``node_v`` with ``sources`` (solve_network)."""
+    turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, want)
     n = slow.shape[1]
     e_grid, e_sc, i_load = sources
     v_pcc, v_sc = node_v[n], node_v[n + 1]
@@ -227,50 +158,18 @@ def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, 
         scalars[Scalar.e_sc] = e_sc
         scalars[Scalar.i_load] = i_load
         scalars[Scalar.f_pcc_pu] = f_pcc_pu
-    return True
 
 
 @njit(**_OPTS)
-def rhs(X, v_load, constants, slow, mode, v_ext, i_hold, z_planes, dX, node_v, rows, scalars, want):
+def rhs(X, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, dX, node_v, rows, scalars, want):
     """The plant's right-hand side (no law): network solve, then ``rhs_given_network``."""
     sources = solve_network(X, v_load, constants, z_planes, node_v)
-    return rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, dX, rows, scalars, want)
-
-
-@njit(**_OPTS)
-def evaluate(X, v_load, constants, slow, mode, v_ext, i_hold, z_planes, out, rows):
-    """One evaluation of X with its results (the cached first stage of the next step) into ``out``
-    (dX, node_v, scalars) and ``rows``; False: the numpy path evaluates it."""
-    _, dX, node_v, scalars = split(out, X.size, slow.shape[1])
-    return rhs(X, v_load, constants, slow, mode, v_ext, i_hold, z_planes, dX, node_v, rows, scalars, True)
-
-
-@njit(**_OPTS)
-def step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, z_planes, out, rows, evaluate_next):
-    """One ETD2 step from X with first stage k1 (``Etd2Coefficients.rows``) into ``out``'s X+ and,
-    with ``evaluate_next``, the evaluation of X+ into the rest of ``out`` and ``rows``. Returns 0
-    (done), 1 (the second stage needs the numpy path; nothing written) or 2 (X+ done, its
-    evaluation needs the numpy path)."""
-    size = X.size
-    x_next, dX_next, node_v, scalars = split(out, size, slow.shape[1])
-    a = np.empty(size, dtype=np.complex128)
-    k2 = np.empty(size, dtype=np.complex128)
-    a_f, k1_f, k2_f = a.view(np.float64), k1.view(np.float64), k2.view(np.float64)
-    etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
-    if not rhs(a, v_load, constants, slow, mode, v_ext, i_hold, z_planes, k2, node_v, rows, scalars, False):
-        return 1
-    etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
-    if not evaluate_next:
-        return 0
-    if not rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, z_planes, dX_next, node_v, rows, scalars, True):
-        return 2
-    return 0
+    rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars, want)
 
 
 @njit(**_OPTS)
 def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
-    """The slow mechanical terms (TurbineBank.slow_terms) into ``slow`` (rows ``Slow``);
-    returns (vd_ok, min P_avail)."""
+    """The slow mechanical terms (TurbineBank.slow_terms) into ``slow`` (rows ``Slow``)."""
     n = v_wind.shape[0]
     v_wind_rated, lambda_opt = constants[Const.v_wind_rated], constants[Const.lambda_opt]
     cp_opt = constants[Const.cp_opt]
@@ -278,8 +177,6 @@ def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
     omega_r_ref = constants[Const.omega_r_ref]
     kp_beta, ki_beta, beta_max = constants[Const.kp_beta], constants[Const.ki_beta], constants[Const.beta_max]
     tau_beta, rate_beta, h_rotor = constants[Const.tau_beta], constants[Const.rate_beta], constants[Const.h_rotor]
-    s_max = 0.0
-    p_avail_min = np.inf
     for j in range(n):
         w_r = X[WR * n + j].real
         beta = X[B * n + j].real
@@ -303,12 +200,74 @@ def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
         slow[Slow.d_xbeta, j] = 0.0 if windup else ki_beta * e_w
         slow[Slow.p_avail, j] = p_avail
         slow[Slow.p_aero, j] = p_aero
-        s_max = max(s_max, math.sqrt(p_star * p_star + q_cmd[j] * q_cmd[j]))
-        p_avail_min = min(p_avail_min, p_avail)
-    return max(0.3, s_max / constants[Const.i_max_gfl]), p_avail_min
 
 
-@njit(**_OPTS)
+def _entries(compiled_in: int):
+    """The cached entry points; ``compiled_in`` (a hash of the sources compiled in) is a closure
+    constant, so it is part of numba's cache key (as in plant/visc_kernels.py)."""
+
+    @njit(cache=True, **_OPTS)
+    def evaluate(X, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, out, rows):
+        """One evaluation of X with its results (the cached first stage of the next step) into
+        ``out`` (dX, node_v, scalars) and ``rows``."""
+        if compiled_in == 0:  # never true: puts the key into the closure
+            return
+        _, dX, node_v, scalars = split(out, X.size, slow.shape[1])
+        rhs(X, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, dX, node_v, rows, scalars, True)
+
+    @njit(cache=True, **_OPTS)
+    def evaluate_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows,
+                               scalars, want):
+        """``rhs_given_network`` as an entry point (the hd_visc law in numpy between two kernels)."""
+        if compiled_in == 0:  # never true (see above)
+            return
+        rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars,
+                          want)
+
+    @njit(cache=True, **_OPTS)
+    def step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, soc_next, z_planes, out,
+             rows, evaluate_next):
+        """One ETD2 step from X with first stage k1 (``Etd2Coefficients.rows``) into ``out``'s X+
+        and, with ``evaluate_next``, the evaluation of X+ into the rest of ``out`` and ``rows``. The
+        batteries' SOC is ``soc`` in the second stage and ``soc_next`` in X+'s evaluation (the SOC
+        of the next step, plant/battery.py)."""
+        if compiled_in == 0:  # never true (see above)
+            return
+        size = X.size
+        x_next, dX_next, node_v, scalars = split(out, size, slow.shape[1])
+        a = np.empty(size, dtype=np.complex128)
+        k2 = np.empty(size, dtype=np.complex128)
+        a_f, k1_f, k2_f = a.view(np.float64), k1.view(np.float64), k2.view(np.float64)
+        etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
+        rhs(a, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, k2, node_v, rows, scalars, False)
+        etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
+        if evaluate_next:
+            rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, battery, soc_next, z_planes, dX_next, node_v,
+                rows, scalars, True)
+
+    @njit(cache=True, **_OPTS)
+    def evaluate_network(X, v_load, constants, z_planes, node_v):
+        """``solve_network`` as an entry point (the first half of an evaluation)."""
+        if compiled_in == 0:  # never true (see above)
+            return 0j, 0j, 0j
+        return solve_network(X, v_load, constants, z_planes, node_v)
+
+    @njit(cache=True, **_OPTS)
+    def hold_slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
+        """``slow_terms`` as an entry point."""
+        if compiled_in == 0:  # never true (see above)
+            return
+        slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow)
+
+    return evaluate, evaluate_given_network, step, evaluate_network, hold_slow_terms
+
+
+# the cached entry points, keyed by the sources they compile in
+evaluate, evaluate_given_network, step, evaluate_network, hold_slow_terms = _entries(
+    source_key(turbine_kernels, turbine_laws, integrator, slots, turbine, condenser, layout))
+
+
+@njit(cache=True, **_OPTS)  # these two compile in turbine.IF only
 def remote_needs_action(X, rem, last_rx_step, k, step_s, trip_current, loss_s, fallback_enabled):
     """True if a remote turbine ``rem`` has a filter current above ``trip_current`` or, with the
     fall-back enabled, a newest reference ``loss_s`` or more old (``Commands._check_fallback``)."""
@@ -321,7 +280,7 @@ def remote_needs_action(X, rem, last_rx_step, k, step_s, trip_current, loss_s, f
     return False
 
 
-@njit(**_OPTS)
+@njit(cache=True, **_OPTS)
 def store_remote(v_hold, i_hold, last_rx_step, idx, v_d, v_q, i_d, i_q, with_current, k):
     """Hold the received references of turbines ``idx`` (``Commands.apply_remote``), step ``k``."""
     n = v_hold.shape[0]

@@ -56,7 +56,7 @@ class Plant(Commands, RightHandSide):
         self._cache = None  # (dX, dxl, aux) of the present state
         self._coef = {}  # ETD2 coefficients by step length and mode/network key
         self._mode_key = None
-        self._compiled = CompiledPath(self.params.turbine, self.layout) if jit else None  # jit=False: numpy only
+        self._compiled = CompiledPath(self.params.turbine, self.layout, self.tb.batt) if jit else None  # jit=False: numpy only
         self.compiled_law = True  # False: the hd_visc law in numpy between compiled kernels (a test's reference)
         self._law_c = None  # (ViscParams, count, law.param_rows) for the compiled law
         self._any_battery = False  # any turbine's battery connected (kept by set_battery: not an array scan per step)
@@ -131,19 +131,30 @@ class Plant(Commands, RightHandSide):
         self.net.ensure()
         k1, l1, aux = self._eval_cached()
         self._v_pcc_last = aux["v_pcc"]
+        counted = self._battery_after_step(aux)
         X, xl = self.X, self.xl
         if self.substeps > 1 or self.method == "rk4":
-            self._advance(*self._substeps(X, xl, k1, l1))
+            self._advance(counted, *self._substeps(X, xl, k1, l1))
             return
         coef = self._coefficients(self.step_s)
         compiled = self._compiled
         if compiled is not None and compiled.covers(self.tb, self.net) and (xl is None or self.compiled_law):
             law = None if xl is None else (xl, l1, self._coefficients(self.step_s, xl.size), *self._law_arrays())
-            r = compiled.step(X, k1, coef, self.tb, self._v_pcc_last, self.k + 1 < self._slow_next, law)
-            if r is not None:  # the usual case: (X+, xl+, (dX+, aux+) or None, dxl+)
-                self._advance(*r)
-                return
-        self._advance(*self._etd2(X, xl, k1, l1, coef, self.step_s))
+            soc_next = self.tb.batt.soc if counted is None else counted[0]
+            # the usual case: (X+, xl+, (dX+, aux+) or None, dxl+)
+            self._advance(counted, *compiled.step(X, k1, coef, self.tb, soc_next, self._v_pcc_last,
+                                                  self.k + 1 < self._slow_next, law))
+            return
+        self._advance(counted, *self._etd2(X, xl, k1, l1, coef, self.step_s))
+
+    def _battery_after_step(self, aux):
+        """The batteries' (SOC, energy) after this step, counted at the current of its first stage
+        ``aux`` (plant/battery.py), or None without batteries. The step itself holds the SOC of
+        its start; the state it reaches is evaluated at this SOC (the next step's)."""
+        if not self._any_battery:
+            return None
+        i = aux["ibatt"] if self.net.all_plugged else np.where(self.net.plugged, aux["ibatt"], 0.0)
+        return self.tb.batt.after_step(i, aux["vdc"], self.step_s)
 
     def _substeps(self, X, xl, k1, l1):
         """``substeps`` steps of step_s/substeps (ETD2, or RK4 with method "rk4")."""
@@ -174,13 +185,12 @@ class Plant(Commands, RightHandSide):
     def _derivatives(self, X, xl):
         return self._evaluate(X, xl)[:2]
 
-    def _advance(self, X, xl, evaluation=None, dxl=None) -> None:
-        """Store the new state, count the step and evaluate it (the next step's first stage) unless
-        ``evaluation`` = (dX, aux) of it is given (the compiled step). Batteries: their SOC and
-        energy advance by the step at the current of its first stage (plant/battery.py)."""
-        if self._any_battery and self._cache is not None:
-            aux = self._cache[2]
-            self.tb.batt.count(np.where(self.net.plugged, aux["ibatt"], 0.0), aux["vdc"], self.step_s)
+    def _advance(self, counted, X, xl, evaluation=None, dxl=None) -> None:
+        """Store the new state and the batteries' ``counted`` (SOC, energy) (``_battery_after_step``),
+        count the step and evaluate it (the next step's first stage) unless ``evaluation`` = (dX, aux)
+        of it is given (the compiled step)."""
+        if counted is not None:
+            self.tb.batt.soc, self.tb.batt.energy = counted
         self.X, self.xl = X, xl
         self.k += 1
         if evaluation is not None:
@@ -268,7 +278,7 @@ class Plant(Commands, RightHandSide):
         if lo is not None:
             visc_delta[self.visc_idx] = lo.delta
             visc_e[self.visc_idx] = lo.e_mag
-        p_batt = aux.get("pbatt", 0.0)
+        p_batt = aux["pbatt"]
         p_batt = np.where(net.plugged, p_batt, 0.0) if np.ndim(p_batt) else np.zeros(n)
         return {
             "t": self.t,

@@ -5,8 +5,8 @@ Each ``IntEnum`` below is generated from one tuple of names. The kernels index w
 name (:func:`pack` with a dict), so a position is never written down twice.
 
 ``Const``: one float vector of every constant the kernels use -- the turbine gains and their
-derived products and the constants of the slow mechanical terms (read when a plant is built), and
-the operating values (grid source, condenser, load, AVR) re-packed after every command. ``Slow``: rows of the held slow terms (N columns). ``Row``: rows of the
+derived products, the constants of the slow mechanical terms and of the DC-link batteries (read
+when a plant is built), and the operating values (grid source, condenser, load, AVR) re-packed after every command. ``Slow``: rows of the held slow terms (N columns). ``Row``: rows of the
 real per-turbine results of an evaluation, the measurements first in wire order
 (sdvisc.vocabulary.MEAS_FIELDS). ``Scalar``: the complex scalars of an evaluation.
 """
@@ -27,14 +27,16 @@ def _slots(name: str, names: tuple[str, ...]) -> type[IntEnum]:
 
 TURBINE_GAINS = (
     "kpc", "kic", "lf", "rf", "w0_over_lf", "w0_rf_over_lf", "w0_kp_pll", "kp_pll", "ki_pll", "m_max",
-    "v_dc_ref", "kp_dc", "ki_dc", "two_over_tau_dc", "p_me_min", "v_chop",
+    "v_dc_ref", "kp_dc", "ki_dc", "two_over_tau_dc", "p_me_min", "v_chop", "k_chop", "i_max_gfl",
 )
 SLOW_CONSTANTS = (
     "v_wind_rated", "lambda_opt", "cp_opt", "p_me_max", "p_headroom", "omega_r_ref", "kp_beta", "beta_max",
-    "tau_beta", "rate_beta", "ki_beta", "h_rotor", "i_max_gfl",
+    "tau_beta", "rate_beta", "ki_beta", "h_rotor",
+)
+BATTERY_CONSTANTS = (  # plant/battery.py: OCV = ocv_scale E_cell(SOC; cell_*), turbine_laws.battery_current
+    "ocv_scale", "cell_e0", "cell_k", "cell_a", "cell_bq", "r_batt", "i_dis_max", "i_chg_max", "soc_min", "soc_max",
 )
 OPERATING_VALUES = (
-    "vd_ok",  # V_d above which no grid-following V_d floor / current limit can act (held slow term)
     "remote_i_ref",  # 1: remote turbines track the received current reference (remote_apply "i_ref")
     "e_grid", "y_grid_re", "y_grid_im", "y_sc_re", "y_sc_im",
     "load_re", "load_im",  # constant-PQ load at the PCC
@@ -43,10 +45,10 @@ OPERATING_VALUES = (
     "xd1_minus_xd2", "xq_minus_xd2", "td01", "td02", "tq02",
     "h_grid", "grid_power_scale", "d_grid", "r_gov", "t_gov", "pm0",
 )
-Const = _slots("Const", TURBINE_GAINS + SLOW_CONSTANTS + OPERATING_VALUES)
+Const = _slots("Const", TURBINE_GAINS + SLOW_CONSTANTS + BATTERY_CONSTANTS + OPERATING_VALUES)
 Slow = _slots("Slow", ("s_ref_re", "s_ref_im", "p_aero_over_2hw", "inv_2hw", "d_beta", "d_xbeta", "p_avail",
                        "p_aero"))
-Row = _slots("Row", (*MEAS_FIELDS, "p_me", "v_conv_re", "v_conv_im"))
+Row = _slots("Row", (*MEAS_FIELDS, "p_me", "v_conv_re", "v_conv_im", "i_batt"))
 Scalar = _slots("Scalar", ("i_sc", "e_grid", "e_sc", "i_load", "f_pcc_pu"))
 
 _INDEX: dict[tuple[str, ...], np.ndarray] = {}
@@ -67,7 +69,8 @@ def turbine_gains(tp) -> dict[str, float]:
         "kpc": tp.kpc, "kic": tp.kic, "lf": tp.lf, "rf": tp.rf, "w0_over_lf": OMEGA0 / tp.lf,
         "w0_rf_over_lf": OMEGA0 / tp.lf * tp.rf, "w0_kp_pll": OMEGA0 * tp.kp_pll, "kp_pll": tp.kp_pll,
         "ki_pll": tp.ki_pll, "m_max": tp.m_max, "v_dc_ref": tp.v_dc_ref, "kp_dc": tp.kp_dc, "ki_dc": tp.ki_dc,
-        "two_over_tau_dc": 2.0 / tp.tau_dc, "p_me_min": tp.p_me_min, "v_chop": tp.v_chop,
+        "two_over_tau_dc": 2.0 / tp.tau_dc, "p_me_min": tp.p_me_min, "v_chop": tp.v_chop, "k_chop": tp.k_chop,
+        "i_max_gfl": tp.i_max_gfl,
     }
 
 
@@ -77,13 +80,22 @@ def slow_constants(tp) -> dict[str, float]:
         "v_wind_rated": tp.v_wind_rated, "lambda_opt": LAMBDA_OPT, "cp_opt": CP_OPT, "p_me_max": tp.p_me_max,
         "p_headroom": tp.p_headroom, "omega_r_ref": tp.omega_r_ref, "kp_beta": tp.kp_beta,
         "beta_max": tp.beta_max, "tau_beta": tp.tau_beta, "rate_beta": tp.rate_beta, "ki_beta": tp.ki_beta,
-        "h_rotor": tp.h_rotor, "i_max_gfl": tp.i_max_gfl,
+        "h_rotor": tp.h_rotor,
+    }
+
+
+def battery_constants(batt) -> dict[str, float]:
+    """The DC-link batteries' pack constants (plant.battery.BatteryBank ``batt``)."""
+    e0, k, a, bq = batt.cell_constants()
+    r, i_dis_max, i_chg_max, soc_min, soc_max = batt.current_constants()
+    return {
+        "ocv_scale": batt.ocv_scale, "cell_e0": e0, "cell_k": k, "cell_a": a, "cell_bq": bq, "r_batt": r,
+        "i_dis_max": i_dis_max, "i_chg_max": i_chg_max, "soc_min": soc_min, "soc_max": soc_max,
     }
 
 
 def operating_values(params, net, sc, load_s: complex, pm0: float) -> dict[str, float]:
-    """Grid source, condenser, load and AVR values of the present operating point (``vd_ok`` is
-    written with the slow terms)."""
+    """Grid source, condenser, load and AVR values of the present operating point."""
     g, p = params.grid, sc.p
     yg, ysc, hg = complex(net.y_grid), complex(net.y_sc), g.h_grid > 0
     return {

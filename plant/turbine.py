@@ -18,8 +18,8 @@ Equations (t in s, w0 = OMEGA0):
     (lf/w0) di/dt = v_conv - v - (rf + j lf) i                  filter in the common frame
     v_conv limited to |v_conv| <= m_max v_dc                     average model, DC-limited
     grid-following (PLL frame, rot = e^{j theta}):
-        e_v = Im(v e^{-j theta}) / |v|,  dtheta/dt = w0 (kp_pll e_v + x_p), dx_p/dt = ki_pll e_v
-        i* = (P* - j Q*) / V_d  (circular limit i_max_gfl),  e = i* - i e^{-j theta}
+        e_v = Im(v e^{-j theta}) / max(|v|, 0.1),  dtheta/dt = w0 (kp_pll e_v + x_p), dx_p/dt = ki_pll e_v
+        i* = (P* - j Q*) / max(V_d, 0.3)  (circular limit i_max_gfl),  e = i* - i e^{-j theta}
         P* = min(w_r^3, 1) (MPPT curve: optimal tip-speed ratio below rated) or a commanded value
         v_conv = v + j lf i + (kpc e + kic xi) e^{j theta},  dxi/dt = e  (frozen while DC-limited)
     hd_visc: v_conv = sdc_unit.law.outputs(x, meas).v_ref (law states integrated by the plant)
@@ -37,9 +37,10 @@ Equations (t in s, w0 = OMEGA0):
     pitch:   beta* = clip(kp_b (w_r - w_ref) + x_b, 0, beta_max), dx_b/dt = ki_b (w_r - w_ref),
              dbeta/dt = clip((beta* - beta)/tau_b, -rate, rate)
 
-``rhs`` is the general numpy implementation (every limiter, batteries; the reference of the
-compiled kernels in plant/kernels.py for those branches): each limiter is skipped after one
-whole-array check shows it inactive, results are written into the caller's derivative array.
+``rhs`` is the general numpy implementation (the reference of the compiled kernels,
+plant/turbine_kernels.py); results are written into the caller's derivative array. The limiters
+(V_d floor and current limit, modulation limit, MSC power clip, chopper) and the battery current
+are written once, in plant/turbine_laws.py, for both.
 The slow terms (P_aero, P_avail, P* - jQ*, 1/(2 H w_r), dbeta/dt, dx_b/dt) come from
 ``slow_terms`` and are held by the plant over ``Plant.slow_every`` steps (``self.slow``).
 """
@@ -48,6 +49,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from plant import turbine_laws as laws
 from plant.battery import BatteryBank
 from plant.params import BatteryParams, TurbineParams
 from sdvisc.vocabulary import OMEGA0
@@ -56,10 +58,16 @@ IF, XI, TH, XP, W, XD, WR, B, XB = range(9)
 NS = 9
 
 GFL, HD_VISC, REMOTE = 0, 1, 2
-_min = np.minimum.reduce
-_max = np.maximum.reduce
 MODES = {"grid_following": GFL, "hd_visc": HD_VISC, "remote": REMOTE}
 MODE_NAMES = {v: k for k, v in MODES.items()}
+
+
+def _complex(re, im):
+    """The complex array re + j im."""
+    z = np.empty(np.shape(re), dtype=complex)
+    z.real = re
+    z.imag = im
+    return z
 
 
 def cp_heier(lam, beta):
@@ -95,7 +103,6 @@ class TurbineBank:
         self.fallbacks = np.zeros(n, dtype=np.int64)
         self.trips = np.zeros(n, dtype=np.int64)
         self.slow = None  # slow terms held over one plant step (slow_terms), or None = every stage
-        self._false = np.zeros(n, dtype=bool)
 
     def hold_slow(self, S) -> None:
         """Evaluate the slow (mechanical) terms once per plant step (zero-order hold; rotor/pitch act
@@ -117,10 +124,8 @@ class TurbineBank:
         db = np.maximum(np.minimum((bref - beta) / p.tau_beta, p.rate_beta), -p.rate_beta)
         dxb = np.where(aw_b, 0.0, p.ki_beta * ew)
         inv2hw = 1.0 / (2.0 * p.h_rotor * np.maximum(wr, 0.1))
-        # grid-following: no clamp of V_d and no current limit while V_d >= vd_ok
-        vd_ok = max(0.3, float(_max(np.abs(sref))) / p.i_max_gfl)
-        return {"paero": pa, "pav": pav, "pav_min": float(_min(pav)), "sref": sref, "vd_ok": vd_ok,
-                "inv2hw": inv2hw, "db": db, "dxb": dxb, "any_batt": bool(self.battery.any())}
+        return {"paero": pa, "pav": pav, "sref": sref, "inv2hw": inv2hw, "db": db, "dxb": dxb,
+                "any_batt": bool(self.battery.any())}
 
     # ------------------------------------------------------------------ aero
     def p_aero(self, wr, beta):
@@ -142,23 +147,20 @@ class TurbineBank:
 
     # ------------------------------------------------------------------ controls
     def gfl_vconv(self, S, v):
-        """Grid-following converter voltage (unlimited) and PLL error."""
+        """Grid-following converter voltage (not modulation-limited) and PLL error."""
         p = self.p
         i = S[IF]
         rot = np.exp(1j * S[TH].real)
         vp = v * rot.conj()
-        vmag = np.maximum(np.abs(v), 0.1)
-        ev = vp.imag / vmag
-        vd = np.maximum(vp.real, 0.3)
-        iref = (self.p_star(S[WR].real) - 1j * self.q_cmd) / vd
-        iref = iref * np.minimum(1.0, p.i_max_gfl / np.maximum(np.abs(iref), 1e-9))
-        e = iref - i * rot.conj()
+        ev = laws.pll_error(vp.imag, v.real, v.imag)
+        sref = self.p_star(S[WR].real) - 1j * self.q_cmd
+        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl)) - i * rot.conj()
         vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot
         return vconv, e, ev
 
     def pll_error(self, S, v):
         vp = v * np.exp(-1j * S[TH].real)
-        return vp.imag / np.maximum(np.abs(v), 0.1)
+        return laws.pll_error(vp.imag, v.real, v.imag)
 
     # ------------------------------------------------------------------ rhs
     def rhs(self, S, v, vconv_ext, ext_mask, any_ext=None, out=None):
@@ -166,8 +168,8 @@ class TurbineBank:
 
         ``vconv_ext`` holds the converter voltage for turbines where ``ext_mask`` is True
         (remote and hd_visc); the others run grid-following.  Returns (dS, aux); ``out`` (NS, N)
-        receives dS if given.  Limits (V_d floor, current limit, modulation limit, MSC power
-        clip, chopper) are skipped by cheap whole-array checks when none can be active.
+        receives dS if given.  The limiters (V_d floor, current limit, modulation limit, MSC power
+        clip, chopper) and the battery current are those of plant/turbine_laws.py.
         """
         p = self.p
         sl = self.slow if self.slow is not None else self.slow_terms(S)
@@ -176,21 +178,18 @@ class TurbineBank:
         vconv, d, e, ev, lim, vdc = self._grid_side(S, v, vconv_ext, ext_mask, any_ext, sl)
         i = S[IF]
         pconv = (vconv * i.conj()).real
-        edc, pme, aw_dc, p_dc, pbatt, ibatt = self._machine_side(S, vdc, pconv, sl)
+        pme, dxd, p_dc, pbatt, ibatt = self._machine_side(S, vdc, pconv, sl)
         dS = np.empty_like(S) if out is None else out
         dSr = dS.real
         dS.imag[TH:] = 0.0  # real rows
         d -= complex(p.rf, p.lf) * i  # v_conv - v - (rf + j lf) i
         np.multiply(d, OMEGA0 / p.lf, out=dS[IF])
-        dS[XI] = np.where(lim | ext_mask, 0.0, e) if any_ext or lim is not self._false else e
+        dS[XI] = np.where(lim | ext_mask, 0.0, e)  # frozen while modulation-limited
         np.multiply(ev, OMEGA0 * p.kp_pll, out=dSr[TH])
         dSr[TH] += OMEGA0 * S.real[XP]
         np.multiply(ev, p.ki_pll, out=dSr[XP])
         np.multiply(p_dc, 2.0 / p.tau_dc, out=dSr[W])
-        if aw_dc is None:
-            np.multiply(edc, p.ki_dc, out=dSr[XD])
-        else:
-            dSr[XD] = np.where(aw_dc, 0.0, p.ki_dc * edc)
+        dSr[XD] = dxd
         np.multiply(sl["paero"] - pme, sl["inv2hw"], out=dSr[WR])
         dSr[B] = sl["db"]
         dSr[XB] = sl["dxb"]
@@ -208,16 +207,10 @@ class TurbineBank:
         np.sin(S.real[TH], out=rotc.imag)
         np.negative(rotc.imag, out=rotc.imag)
         vp = v * rotc
-        vd = vp.real
-        vmag = np.abs(v)
-        if _min(vd) >= sl["vd_ok"]:  # common case: no clamp, no grid-following current limit
-            iref = sl["sref"] / vd
-        else:
-            vmag = np.maximum(vmag, 0.1)
-            iref = sl["sref"] / np.maximum(vd, 0.3)
-            iref = iref * np.minimum(1.0, p.i_max_gfl / np.maximum(np.abs(iref), 1e-9))
-        ev = vp.imag / vmag
-        e = iref - i * rotc
+        ev = laws.pll_error(vp.imag, v.real, v.imag)
+        sref = sl["sref"]
+        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl))
+        e -= i * rotc
         # d = v_conv - v; grid-following: j lf i + (kpc e + kic xi) e^{j theta}
         d = p.kpc * e
         d += p.kic * S[XI]
@@ -227,36 +220,23 @@ class TurbineBank:
             d = np.where(ext_mask, vconv_ext - v, d)
         vconv = v + d
         vdc = np.sqrt(np.maximum(S.real[W], 1e-4))
-        vm = np.abs(vconv)
-        lim = self._false
-        if _max(vm - p.m_max * vdc) > 0.0:  # modulation limit |v_conv| <= m_max v_dc
-            vmax = p.m_max * vdc
-            lim = vm > vmax
-            vconv = vconv * np.minimum(1.0, vmax / np.maximum(vm, 1e-9))
+        vc_re, vc_im, lim = laws.modulation_limit(vconv.real, vconv.imag, vdc, p.m_max)
+        if lim.any():
+            vconv = _complex(vc_re, vc_im)
             d = vconv - v
         return vconv, d, e, ev, lim, vdc
 
     def _machine_side(self, S, vdc, pconv, sl):
-        """DC-voltage PI, MSC power clip, battery and chopper: (v_dc error, P_me, anti-windup mask or
-        None, net power into the DC link, P_batt, battery current i_b)."""
+        """DC-voltage PI with the MSC power clip, battery and chopper: (P_me, dx_d/dt, net power into
+        the DC link, P_batt, battery current i_b)."""
         p = self.p
-        edc = p.v_dc_ref - vdc
-        pme_u = p.kp_dc * edc
-        pme_u += S.real[XD]
-        if _max(pme_u) <= sl["pav_min"] and _min(pme_u) >= p.p_me_min:
-            pme, aw_dc = pme_u, None
-        else:
-            pme = np.maximum(np.minimum(pme_u, sl["pav"]), p.p_me_min)
-            aw_dc = (pme_u - pme) * edc > 0.0  # clipped and the error pushes further out
-        p_dc = pme - pconv
+        pme, dxd = laws.msc_power(p.v_dc_ref - vdc, S.real[XD], sl["pav"], p.kp_dc, p.ki_dc, p.p_me_min)
         pbatt = ibatt = 0.0
         if sl["any_batt"]:
             ibatt = self.batt.current(vdc, self.battery)
             pbatt = vdc * ibatt
-            p_dc = p_dc + pbatt
-        if _max(vdc) > p.v_chop:
-            p_dc = p_dc - np.minimum(p.k_chop * np.maximum(vdc - p.v_chop, 0.0), 1.5)
-        return edc, pme, aw_dc, p_dc, pbatt, ibatt
+        p_dc = laws.dc_link_power(pme, pconv, pbatt, vdc, p.v_chop, p.k_chop)
+        return pme, dxd, p_dc, pbatt, ibatt
 
     # ------------------------------------------------------------------ initialisation
     def init_state(self, v, i):

@@ -5,8 +5,7 @@ turbine on its terminal measurements (``sdc_unit.law_jit.law_rhs``: the law's ow
 compiled), which gives their converter voltages, then the rest of the right-hand side
 (``kernels.rhs_given_network``); the step is the ETD2 step of ``kernels.step`` on the plant state
 and, with its own coefficients (c = 0: Heun), on the law states -- the update ``Plant._etd2`` makes
-with the numpy law, in one call. A limiter that would act returns False (or a code) as in
-plant/kernels.py and the plant takes the general numpy path.
+with the numpy law, in one call.
 
 Arguments as in plant/kernels.py, and: ``xl`` the law states (rows sdc_unit.law_kernels.STATE_NAMES,
 one C-contiguous column per hd_visc turbine), ``l1``/``dxl`` their derivatives, ``visc_idx`` the
@@ -25,11 +24,12 @@ import math
 import numpy as np
 from numba import njit
 
-from plant import condenser, integrator, kernels, layout, slots, turbine
+from plant import condenser, integrator, kernels, layout, slots, turbine, turbine_kernels, turbine_laws
 from plant.integrator import etd2_correct, etd2_predict
 from plant.kernels import rhs_given_network, solve_network, split
 from plant.slots import Const
 from plant.turbine import IF, TH, XP, W
+from plant.turbine_kernels import pll_error
 from sdc_unit import law_kernels as L
 from sdc_unit.law_jit import law_rhs, source_key
 
@@ -48,7 +48,7 @@ def law_turbines(X, node_v, constants, visc_idx, xl, law_c, v_ext, dxl, law_rows
         v = node_v[j]
         i = X[IF * n + j]
         theta = X[TH * n + j].real
-        e_v = (v * complex(math.cos(theta), -math.sin(theta))).imag / max(abs(v), 0.1)  # PLL error
+        e_v = pll_error((v * complex(math.cos(theta), -math.sin(theta))).imag, v.real, v.imag)
         m[L.M_VD], m[L.M_VQ], m[L.M_ID], m[L.M_IQ] = v.real, v.imag, i.real, i.imag
         m[L.M_P] = v.real * i.real + v.imag * i.imag
         m[L.M_Q] = v.imag * i.real - v.real * i.imag
@@ -59,13 +59,12 @@ def law_turbines(X, node_v, constants, visc_idx, xl, law_c, v_ext, dxl, law_rows
 
 
 @njit(**_OPTS)
-def rhs_visc(X, xl, v_load, constants, slow, mode, v_ext, i_hold, z_planes, visc_idx, law_c, dX, dxl, node_v, rows,
-             scalars, law_rows, want):
-    """dX and dxl of (X, xl): network solve, law, rest of the right-hand side; False if a limiter
-    would act."""
+def rhs_visc(X, xl, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, visc_idx, law_c, dX, dxl,
+             node_v, rows, scalars, law_rows, want):
+    """dX and dxl of (X, xl): network solve, law, rest of the right-hand side."""
     sources = solve_network(X, v_load, constants, z_planes, node_v)
     law_turbines(X, node_v, constants, visc_idx, xl, law_c, v_ext, dxl, law_rows)
-    return rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, dX, rows, scalars, want)
+    rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars, want)
 
 
 def _entries(compiled_in: int):
@@ -73,25 +72,25 @@ def _entries(compiled_in: int):
     constant, so it is part of numba's cache key."""
 
     @njit(cache=True, **_OPTS)
-    def evaluate_visc(X, xl, v_load, constants, slow, mode, v_hold, i_hold, z_planes, visc_idx, law_c, out, dxl,
-                      rows, law_rows, want):
+    def evaluate_visc(X, xl, v_load, constants, slow, mode, v_hold, i_hold, battery, soc, z_planes, visc_idx, law_c,
+                      out, dxl, rows, law_rows, want):
         """One evaluation of (X, xl) into ``out`` (dX, node_v, scalars; see kernels.split), ``dxl``,
-        ``rows`` (with ``want``) and ``law_rows``; False: the numpy path evaluates it."""
+        ``rows`` (with ``want``) and ``law_rows``."""
         if compiled_in == 0:  # never true: puts the key into the closure
-            return False
+            return
         _, dX, node_v, scalars = split(out, X.size, slow.shape[1])
-        return rhs_visc(X, xl, v_load, constants, slow, mode, v_hold.copy(), i_hold, z_planes, visc_idx, law_c, dX,
-                        dxl, node_v, rows, scalars, law_rows, want)
+        rhs_visc(X, xl, v_load, constants, slow, mode, v_hold.copy(), i_hold, battery, soc, z_planes, visc_idx, law_c,
+                 dX, dxl, node_v, rows, scalars, law_rows, want)
 
     @njit(cache=True, **_OPTS)
     def step_visc(X, k1, coefficients, xl, l1, law_coefficients, v_load, constants, slow, mode, v_hold, i_hold,
-                  z_planes, visc_idx, law_c, out, xl_next, dxl_next, rows, law_rows, evaluate_next):
+                  battery, soc, soc_next, z_planes, visc_idx, law_c, out, xl_next, dxl_next, rows, law_rows,
+                  evaluate_next):
         """One ETD2 step from (X, xl) with first stages (k1, l1) into ``out``'s X+ and ``xl_next``
         and, with ``evaluate_next``, the evaluation of (X+, xl+) into the rest of ``out``,
-        ``dxl_next``, ``rows``, ``law_rows``. Returns 0 (done), 1 (the second stage needs the numpy
-        path; nothing kept) or 2 (the step done, its evaluation needs the numpy path)."""
+        ``dxl_next``, ``rows``, ``law_rows``; the batteries' SOC as in ``kernels.step``."""
         if compiled_in == 0:  # never true (see above)
-            return 1
+            return
         size = X.size
         x_next, dX_next, node_v, scalars = split(out, size, slow.shape[1])
         v_ext = v_hold.copy()
@@ -103,19 +102,16 @@ def _entries(compiled_in: int):
         xa_f, l1_f, l2_f = xa.reshape(xa.size), l1.reshape(l1.size), l2.reshape(l2.size)
         etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
         etd2_predict(xl.reshape(xl.size), l1_f, law_coefficients[1], xa_f)
-        if not rhs_visc(a, xa, v_load, constants, slow, mode, v_ext, i_hold, z_planes, visc_idx, law_c, k2, l2, node_v,
-                        rows, scalars, law_rows, False):
-            return 1
+        rhs_visc(a, xa, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, visc_idx, law_c, k2, l2,
+                 node_v, rows, scalars, law_rows, False)
         etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
         etd2_correct(xa_f, l1_f, l2_f, law_coefficients[0], law_coefficients[2], xl_next.reshape(xl_next.size))
-        if not evaluate_next:
-            return 0
-        if not rhs_visc(x_next, xl_next, v_load, constants, slow, mode, v_ext, i_hold, z_planes, visc_idx, law_c,
-                        dX_next, dxl_next, node_v, rows, scalars, law_rows, True):
-            return 2
-        return 0
+        if evaluate_next:
+            rhs_visc(x_next, xl_next, v_load, constants, slow, mode, v_ext, i_hold, battery, soc_next, z_planes,
+                     visc_idx, law_c, dX_next, dxl_next, node_v, rows, scalars, law_rows, True)
 
     return evaluate_visc, step_visc
 
 
-evaluate_visc, step_visc = _entries(source_key(kernels, integrator, slots, turbine, condenser, layout))
+evaluate_visc, step_visc = _entries(source_key(kernels, turbine_kernels, turbine_laws, integrator, slots, turbine,
+                                                condenser, layout))

@@ -2,7 +2,8 @@
 same equations on arrays (sdc_unit.law.evaluate): both run sdc_unit.law_kernels.law_rhs, so
 derivatives and outputs must be bit-identical in float64 -- limited and unlimited turbines, every
 flag on and off, per-turbine parameter arrays. And the plant's cached hd_visc kernels carry the hash
-of what they compile in (law_kernels.py and the plant kernels' sources) in their cache key."""
+of what they compile in (law_kernels.py and the plant kernels' sources) in their cache key, as do
+the plant's other cached entry points (plant/kernels.py)."""
 
 import hashlib
 import inspect
@@ -11,7 +12,17 @@ import numpy as np
 import pytest
 from numba import njit
 
-from plant import condenser, integrator, kernels, layout, slots, turbine, visc_kernels
+from plant import (
+    condenser,
+    integrator,
+    kernels,
+    layout,
+    slots,
+    turbine,
+    turbine_kernels,
+    turbine_laws,
+    visc_kernels,
+)
 from sdc_unit import law, law_kernels
 from sdc_unit.law_jit import law_rhs
 from sdc_unit.params import ViscParams
@@ -69,9 +80,21 @@ def test_compiled_law_is_bit_identical_to_the_numpy_law(name):
     assert limited[0] < N and limited[-1] > 0, limited  # both branches of the limiter ran
 
 
+def _key(*modules) -> int:
+    text = "".join(inspect.getsource(mod) for mod in (law_kernels, *modules))
+    return int(hashlib.sha256(text.encode()).hexdigest()[:15], 16)
+
+
 def test_plant_visc_kernels_cache_key_follows_their_sources():
-    text = "".join(inspect.getsource(mod) for mod in (law_kernels, kernels, integrator, slots, turbine, condenser,
-                                                       layout))
-    key = int(hashlib.sha256(text.encode()).hexdigest()[:15], 16)
+    key = _key(kernels, turbine_kernels, turbine_laws, integrator, slots, turbine, condenser, layout)
     for entry in (visc_kernels.evaluate_visc, visc_kernels.step_visc):
+        assert [c.cell_contents for c in entry.py_func.__closure__] == [key]
+
+
+def test_plant_kernels_cache_key_follows_their_sources():
+    """The turbines' equations (turbine_kernels.py, turbine_laws.py) are compiled into the cached
+    entry points of plant/kernels.py: an edit of either must change their key."""
+    key = _key(turbine_kernels, turbine_laws, integrator, slots, turbine, condenser, layout)
+    for entry in (kernels.evaluate, kernels.evaluate_given_network, kernels.step, kernels.evaluate_network,
+                  kernels.hold_slow_terms):
         assert [c.cell_contents for c in entry.py_func.__closure__] == [key]

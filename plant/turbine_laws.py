@@ -1,0 +1,79 @@
+"""The turbines' limiters and DC-link terms, written once for numpy and for numba.
+
+Each function uses only arithmetic and numpy ufuncs (``np.hypot``, ``np.maximum``, ``np.exp``) and
+no branch on its arguments (a flag is a bool used as a 0/1 factor), so the same Python function
+
+* runs on arrays of N turbines in the general numpy path (``TurbineBank.rhs`` in plant/turbine.py,
+  ``BatteryBank`` in plant/battery.py), and
+* compiles for one turbine's scalars with ``numba.njit`` in plant/turbine_kernels.py (the
+  compiled path's ``turbines_rhs``).
+
+Where a limiter does not act, its function returns its input exactly (a factor of exactly 1.0, a
+clip inside its bounds, a zero power added), so the limited formulas are the only ones: there is
+no separate unlimited one. The equations are those of plant/turbine.py's docstring and
+plant/battery.py's. Dependencies: numpy only.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+V_D_FLOOR = 0.3  # grid-following current reference: V_d taken as at least this, p.u.
+V_PLL_FLOOR = 0.1  # PLL error: |v| taken as at least this, p.u.
+P_CHOP_MAX = 1.5  # braking-chopper power limit, p.u.
+SOC_FLOOR = 1e-3  # E_cell has K (1 - SOC)/SOC: evaluated no lower than this
+
+
+def pll_error(vp_q, v_d, v_q):
+    """PLL error e_v = Im(v e^{-j theta}) / |v| (``vp_q`` the first, v = v_d + j v_q), |v| >= 0.1."""
+    return vp_q / np.maximum(np.sqrt(v_d * v_d + v_q * v_q), V_PLL_FLOOR)
+
+
+def gfl_current_ref(s_re, s_im, vp_d, i_max):
+    """Grid-following current reference in the PLL frame, (i*_d, i*_q): (P* - j Q*) / V_d with
+    V_d >= 0.3 (``s_re``, ``s_im`` = P*, -Q*; ``vp_d`` = Re(v e^{-j theta})), scaled down to
+    |i*| <= i_max (circular limit)."""
+    vd = np.maximum(vp_d, V_D_FLOOR)
+    i_d = s_re / vd
+    i_q = s_im / vd
+    scale = np.minimum(1.0, i_max / np.maximum(np.sqrt(i_d * i_d + i_q * i_q), 1e-9))
+    return i_d * scale, i_q * scale
+
+
+def modulation_limit(vc_re, vc_im, v_dc, m_max):
+    """The converter voltage limited to |v_conv| <= m_max v_dc (scaled down keeping its angle):
+    (Re, Im, limited)."""
+    vm = np.sqrt(vc_re * vc_re + vc_im * vc_im)
+    vmax = m_max * v_dc
+    scale = np.minimum(1.0, vmax / np.maximum(vm, 1e-9))
+    return vc_re * scale, vc_im * scale, vm > vmax
+
+
+def msc_power(e_dc, x_d, p_avail, kp_dc, ki_dc, p_me_min):
+    """The machine-side converter's DC-voltage PI, (P_me, dx_d/dt): P_me = clip(kp_dc e_dc + x_d,
+    p_me_min, P_avail); its integrator stops while P_me is clipped and the error pushes further out."""
+    p_me_u = kp_dc * e_dc + x_d
+    p_me = np.maximum(np.minimum(p_me_u, p_avail), p_me_min)
+    windup = (p_me_u - p_me) * e_dc > 0.0
+    return p_me, ki_dc * e_dc * (1.0 - windup)
+
+
+def dc_link_power(p_me, p_conv, p_batt, v_dc, v_chop, k_chop):
+    """Net power into the DC link: P_me - P_conv + P_batt - P_chop,
+    P_chop = min(k_chop max(v_dc - v_chop, 0), 1.5) (braking chopper)."""
+    return p_me - p_conv + p_batt - np.minimum(k_chop * np.maximum(v_dc - v_chop, 0.0), P_CHOP_MAX)
+
+
+def cell_ocv(soc, e0, k, a, bq):
+    """E_cell(SOC), V (Tremblay-Dessaint, no current; plant/battery.py), SOC >= 1e-3."""
+    s = np.maximum(soc, SOC_FLOOR)
+    return e0 - k * (1.0 - s) / s + a * np.exp(-bq * (1.0 - s))
+
+
+def battery_current(ocv, v_dc, soc, on, r, i_dis_max, i_chg_max, soc_min, soc_max):
+    """Battery current into the DC link (+ = discharging): (OCV - v_dc) / r_b within the C-rate
+    limits [-i_chg_max, i_dis_max]; 0 where discharging at SOC <= soc_min, charging at
+    SOC >= soc_max, or the battery is not connected (``on`` False)."""
+    i = np.minimum(np.maximum((ocv - v_dc) / r, -i_chg_max), i_dis_max)
+    blocked = ((i > 0.0) & (soc <= soc_min)) | ((i < 0.0) & (soc >= soc_max))
+    return i * (on * (1.0 - blocked))
