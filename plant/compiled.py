@@ -102,6 +102,7 @@ class CompiledPath:
         """Evaluate the slow mechanical terms of state X (``TurbineBank.slow_terms``, compiled)."""
         rows = np.empty((len(Slow), self.n))
         kernels.hold_slow_terms(X, self.constants, turbines.v_wind, turbines.mppt, turbines.p_cmd, turbines.q_cmd, rows)
+        rows[Slow.battery_on] = turbines.battery
         held = SlowTerms(paero=rows[Slow.p_aero], pav=rows[Slow.p_avail], inv2hw=rows[Slow.inv_2hw],
                          db=rows[Slow.d_beta], dxb=rows[Slow.d_xbeta], any_batt=bool(turbines.battery.any()))
         held.rows = rows
@@ -131,7 +132,7 @@ class CompiledPath:
         """(dX, aux) of state X."""
         out, rows = self._buffers()
         kernels.evaluate(X, v_load, self.constants, self.held.rows, turbines.mode, turbines.v_hold, turbines.i_hold,
-                         turbines.battery, turbines.batt.soc, self.z_planes, out, rows)
+                         turbines.batt.soc, self.z_planes, out, rows)
         return out[self.size:2 * self.size], CompiledAux(out, rows, self.n, self.size)
 
     def solve_network(self, X, v_load: complex):
@@ -149,7 +150,7 @@ class CompiledPath:
         dX, scalars = out[self.size:o], out[o + self.n + 2:]
         out[o:o + self.n + 2] = node_v
         kernels.evaluate_given_network(X, node_v, sources, self.constants, self.held.rows, turbines.mode, v_ext,
-                                       turbines.i_hold, turbines.battery, turbines.batt.soc, dX, rows, scalars,
+                                       turbines.i_hold, turbines.batt.soc, dX, rows, scalars,
                                        want_aux)
         return dX, (CompiledAux(out, rows, self.n, self.size) if want_aux else None)
 
@@ -160,7 +161,7 @@ class CompiledPath:
         xl = np.ascontiguousarray(xl)
         dxl, law_rows = np.empty_like(xl), np.empty((len(OUT_ROWS), xl.shape[1]))
         visc_kernels.evaluate_visc(X, xl, v_load, self.constants, self.held.rows, turbines.mode, turbines.v_hold,
-                                   turbines.i_hold, turbines.battery, turbines.batt.soc, self.z_planes, visc_idx, law_c,
+                                   turbines.i_hold, turbines.batt.soc, self.z_planes, visc_idx, law_c,
                                    out, dxl, rows, law_rows, want_aux)
         aux = CompiledAux(out, rows, self.n, self.size, (xl, law_rows)) if want_aux else None
         return out[self.size:2 * self.size], dxl, aux
@@ -172,17 +173,17 @@ class CompiledPath:
         ``turbines.batt.soc``, X+ at ``soc_next`` (the next step's)."""
         out, rows = self._buffers()
         xl_next = dxl = law_rows = None
-        batt = (turbines.battery, turbines.batt.soc, soc_next)
+        soc = turbines.batt.soc
         if law is None:
             kernels.step(X, k1, coefficients.rows, v_load, self.constants, self.held.rows, turbines.mode,
-                         turbines.v_hold, turbines.i_hold, *batt, self.z_planes, out, rows, evaluate_next)
+                         turbines.v_hold, turbines.i_hold, soc, soc_next, self.z_planes, out, rows, evaluate_next)
         else:
             xl, l1, law_coefficients, visc_idx, law_c = law
             xl, l1 = np.ascontiguousarray(xl), np.ascontiguousarray(l1)
             xl_next, dxl, law_rows = np.empty_like(xl), np.empty_like(xl), np.empty((len(OUT_ROWS), xl.shape[1]))
             visc_kernels.step_visc(X, k1, coefficients.rows, xl, l1, law_coefficients.rows, v_load, self.constants,
-                                   self.held.rows, turbines.mode, turbines.v_hold, turbines.i_hold, *batt,
-                                   self.z_planes, visc_idx, law_c, out, xl_next, dxl, rows, law_rows, evaluate_next)
+                                   self.held.rows, turbines.mode, turbines.v_hold, turbines.i_hold, soc,
+                                   soc_next, self.z_planes, visc_idx, law_c, out, xl_next, dxl, rows, law_rows, evaluate_next)
         x_next = out[:self.size]
         if not evaluate_next:
             return x_next, xl_next, None, None
@@ -203,21 +204,21 @@ def load_kernels() -> None:
     X, constants, slow = np.ones(size, dtype=complex), np.ones(len(Const)), np.ones((len(Slow), 1))
     mode, v_ext, z_planes = np.zeros(1, dtype=np.int64), np.ones(1, dtype=complex), np.ones((2, 3, 3))
     out, rows = np.empty(2 * size + 3 + kernels.N_SCALARS, dtype=complex), np.empty((len(Row), 1))
-    batt, soc = np.ones(1, dtype=bool), np.ones(1)
-    kernels.evaluate(X, 1j, constants, slow, mode, v_ext, v_ext, batt, soc, z_planes, out, rows)
-    kernels.step(X, out[size:2 * size], np.ones((3, 2 * size)), 1j, constants, slow, mode, v_ext, v_ext, batt, soc,
+    soc = np.ones(1)
+    kernels.evaluate(X, 1j, constants, slow, mode, v_ext, v_ext, soc, z_planes, out, rows)
+    kernels.step(X, out[size:2 * size], np.ones((3, 2 * size)), 1j, constants, slow, mode, v_ext, v_ext, soc,
                  soc.copy(), z_planes, out, rows, True)
     node_v = np.ones(3, dtype=complex)
     sources = kernels.evaluate_network(X, 1j, constants, z_planes, node_v)
-    kernels.evaluate_given_network(X, node_v, sources, constants, slow, mode, v_ext, v_ext, batt, soc,
+    kernels.evaluate_given_network(X, node_v, sources, constants, slow, mode, v_ext, v_ext, soc,
                                    out[size:2 * size], rows, out[2 * size + 3:], False)
     kernels.hold_slow_terms(X, constants, np.ones(1), np.ones(1, dtype=bool), np.ones(1), np.ones(1), slow)
     xl, law_c, law_coefficients = np.ones((LAW_NX, 1)), np.ones((len(PARAM_ROWS), 1)), np.ones((3, LAW_NX))
     visc_idx, law_rows = np.zeros(1, dtype=np.int64), np.empty((len(OUT_ROWS), 1))
-    visc_kernels.evaluate_visc(X, xl, 1j, constants, slow, mode, v_ext, v_ext, batt, soc, z_planes, visc_idx, law_c,
+    visc_kernels.evaluate_visc(X, xl, 1j, constants, slow, mode, v_ext, v_ext, soc, z_planes, visc_idx, law_c,
                                out, xl.copy(), rows, law_rows, True)
     visc_kernels.step_visc(X, out[size:2 * size], np.ones((3, 2 * size)), xl, xl.copy(), law_coefficients, 1j,
-                           constants, slow, mode, v_ext, v_ext, batt, soc, soc.copy(), z_planes, visc_idx, law_c, out,
+                           constants, slow, mode, v_ext, v_ext, soc, soc.copy(), z_planes, visc_idx, law_c, out,
                            xl.copy(), xl.copy(), rows, law_rows, True)
     kernels.remote_needs_action(X, np.zeros(1, dtype=np.intp), np.zeros(1, dtype=np.int64), 1, 1.0, 1.0, 1.0, True)
     kernels.store_remote(v_ext, v_ext.copy(), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.intp), np.ones(1),

@@ -17,8 +17,8 @@ Arguments, by name: ``X`` the complex state (plant/layout.py), ``constants`` (sl
 modes, converter-voltage references (held remote references or the law's) and held current
 references, ``z_planes`` the real and imaginary planes of ``Network.zred``, transposed,
 ``node_v`` the reduced node voltages [turbine terminals, PCC, SC], ``rows`` the per-turbine real
-results (slots ``Row``), ``scalars`` the complex scalars (slots ``Scalar``), ``battery``/``soc``
-the turbines whose battery is connected and their held states of charge.
+results (slots ``Row``), ``scalars`` the complex scalars (slots ``Scalar``), ``soc`` the
+batteries' held states of charge (``slow``'s row ``Slow.battery_on``: which are connected).
 
 ``out`` of ``evaluate``/``step``: one complex buffer [X+ (size) | dX (size) | node_v (N + 2) |
 scalars]; see ``split``.
@@ -142,10 +142,10 @@ def grid_and_pll_rhs(X, o, v_pcc, e_grid, constants, dX):
 
 
 @njit(**_OPTS)
-def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars,
+def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, soc, dX, rows, scalars,
                       want):
     """dX of state X whose network solve is ``node_v`` with ``sources`` (solve_network)."""
-    turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, want)
+    turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows, want)
     n = slow.shape[1]
     e_grid, e_sc, i_load = sources
     v_pcc, v_sc = node_v[n], node_v[n + 1]
@@ -161,10 +161,10 @@ def rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, 
 
 
 @njit(**_OPTS)
-def rhs(X, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, dX, node_v, rows, scalars, want):
+def rhs(X, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, dX, node_v, rows, scalars, want):
     """The plant's right-hand side (no law): network solve, then ``rhs_given_network``."""
     sources = solve_network(X, v_load, constants, z_planes, node_v)
-    rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars, want)
+    rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, soc, dX, rows, scalars, want)
 
 
 @njit(**_OPTS)
@@ -207,25 +207,25 @@ def _entries(compiled_in: int):
     constant, so it is part of numba's cache key (as in plant/visc_kernels.py)."""
 
     @njit(cache=True, **_OPTS)
-    def evaluate(X, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, out, rows):
+    def evaluate(X, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, out, rows):
         """One evaluation of X with its results (the cached first stage of the next step) into
         ``out`` (dX, node_v, scalars) and ``rows``."""
         if compiled_in == 0:  # never true: puts the key into the closure
             return
         _, dX, node_v, scalars = split(out, X.size, slow.shape[1])
-        rhs(X, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, dX, node_v, rows, scalars, True)
+        rhs(X, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, dX, node_v, rows, scalars, True)
 
     @njit(cache=True, **_OPTS)
-    def evaluate_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows,
+    def evaluate_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
                                scalars, want):
         """``rhs_given_network`` as an entry point (the hd_visc law in numpy between two kernels)."""
         if compiled_in == 0:  # never true (see above)
             return
-        rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars,
+        rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, soc, dX, rows, scalars,
                           want)
 
     @njit(cache=True, **_OPTS)
-    def step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, soc_next, z_planes, out,
+    def step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, soc, soc_next, z_planes, out,
              rows, evaluate_next):
         """One ETD2 step from X with first stage k1 (``Etd2Coefficients.rows``) into ``out``'s X+
         and, with ``evaluate_next``, the evaluation of X+ into the rest of ``out`` and ``rows``. The
@@ -239,10 +239,10 @@ def _entries(compiled_in: int):
         k2 = np.empty(size, dtype=np.complex128)
         a_f, k1_f, k2_f = a.view(np.float64), k1.view(np.float64), k2.view(np.float64)
         etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
-        rhs(a, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, k2, node_v, rows, scalars, False)
+        rhs(a, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, k2, node_v, rows, scalars, False)
         etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
         if evaluate_next:
-            rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, battery, soc_next, z_planes, dX_next, node_v,
+            rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, soc_next, z_planes, dX_next, node_v,
                 rows, scalars, True)
 
     @njit(cache=True, **_OPTS)

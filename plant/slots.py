@@ -47,7 +47,8 @@ OPERATING_VALUES = (
 )
 Const = _slots("Const", TURBINE_GAINS + SLOW_CONSTANTS + BATTERY_CONSTANTS + OPERATING_VALUES)
 Slow = _slots("Slow", ("s_ref_re", "s_ref_im", "p_aero_over_2hw", "inv_2hw", "d_beta", "d_xbeta", "p_avail",
-                       "p_aero"))
+                       "p_aero",
+                       "battery_on"))  # 1.0: the turbine's battery is connected (set_battery holds them anew)
 Row = _slots("Row", (*MEAS_FIELDS, "p_me", "v_conv_re", "v_conv_im", "i_batt"))
 Scalar = _slots("Scalar", ("i_sc", "e_grid", "e_sc", "i_load", "f_pcc_pu"))
 

@@ -10,8 +10,8 @@ The functions here are not cached on disk themselves; the cached kernels that co
 (plant/kernels.py, plant/visc_kernels.py) carry a hash of this file and of turbine_laws.py in their
 cache key (``sdc_unit.law_jit.source_key``).
 
-Arguments as in plant/kernels.py, and: ``battery`` the turbines whose battery is connected (bool),
-``soc`` their state of charge, held over the evaluation (plant/battery.py).
+Arguments as in plant/kernels.py, and ``soc`` the batteries' states of charge, held over the
+evaluation (plant/battery.py; the row ``Slow.battery_on`` of ``slow`` says which are connected).
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def battery_current_of(constants, v_dc, soc):
 
 
 @njit(**_OPTS)
-def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, want):
+def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows, want):
     """Turbine derivatives into dX (and, ``want``, the results into ``rows``)."""
     n = slow.shape[1]
     w0_over_lf, w0_rf_over_lf = constants[Const.w0_over_lf], constants[Const.w0_rf_over_lf]
@@ -104,7 +104,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, battery, soc, 
             e_i = 0j
         e_dc = v_dc_ref - v_dc
         p_me, d_xd = msc_power(e_dc, X[XD * n + j].real, slow[Slow.p_avail, j], kp_dc, ki_dc, p_me_min)
-        i_batt = battery_current_of(constants, v_dc, soc[j]) if battery[j] else 0.0
+        i_batt = battery_current_of(constants, v_dc, soc[j]) if slow[Slow.battery_on, j] != 0.0 else 0.0
         p_conv = v_conv.real * i.real + v_conv.imag * i.imag
         p_dc = dc_link_power(p_me, p_conv, v_dc * i_batt, v_dc, v_chop, k_chop)
         dX[IF * n + j] = complex(w0_over_lf * g.real - w0_rf_over_lf * i.real,

@@ -59,12 +59,12 @@ def law_turbines(X, node_v, constants, visc_idx, xl, law_c, v_ext, dxl, law_rows
 
 
 @njit(**_OPTS)
-def rhs_visc(X, xl, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, visc_idx, law_c, dX, dxl,
+def rhs_visc(X, xl, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, visc_idx, law_c, dX, dxl,
              node_v, rows, scalars, law_rows, want):
     """dX and dxl of (X, xl): network solve, law, rest of the right-hand side."""
     sources = solve_network(X, v_load, constants, z_planes, node_v)
     law_turbines(X, node_v, constants, visc_idx, xl, law_c, v_ext, dxl, law_rows)
-    rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, battery, soc, dX, rows, scalars, want)
+    rhs_given_network(X, node_v, sources, constants, slow, mode, v_ext, i_hold, soc, dX, rows, scalars, want)
 
 
 def _entries(compiled_in: int):
@@ -72,19 +72,19 @@ def _entries(compiled_in: int):
     constant, so it is part of numba's cache key."""
 
     @njit(cache=True, **_OPTS)
-    def evaluate_visc(X, xl, v_load, constants, slow, mode, v_hold, i_hold, battery, soc, z_planes, visc_idx, law_c,
+    def evaluate_visc(X, xl, v_load, constants, slow, mode, v_hold, i_hold, soc, z_planes, visc_idx, law_c,
                       out, dxl, rows, law_rows, want):
         """One evaluation of (X, xl) into ``out`` (dX, node_v, scalars; see kernels.split), ``dxl``,
         ``rows`` (with ``want``) and ``law_rows``."""
         if compiled_in == 0:  # never true: puts the key into the closure
             return
         _, dX, node_v, scalars = split(out, X.size, slow.shape[1])
-        rhs_visc(X, xl, v_load, constants, slow, mode, v_hold.copy(), i_hold, battery, soc, z_planes, visc_idx, law_c,
+        rhs_visc(X, xl, v_load, constants, slow, mode, v_hold.copy(), i_hold, soc, z_planes, visc_idx, law_c,
                  dX, dxl, node_v, rows, scalars, law_rows, want)
 
     @njit(cache=True, **_OPTS)
     def step_visc(X, k1, coefficients, xl, l1, law_coefficients, v_load, constants, slow, mode, v_hold, i_hold,
-                  battery, soc, soc_next, z_planes, visc_idx, law_c, out, xl_next, dxl_next, rows, law_rows,
+                  soc, soc_next, z_planes, visc_idx, law_c, out, xl_next, dxl_next, rows, law_rows,
                   evaluate_next):
         """One ETD2 step from (X, xl) with first stages (k1, l1) into ``out``'s X+ and ``xl_next``
         and, with ``evaluate_next``, the evaluation of (X+, xl+) into the rest of ``out``,
@@ -102,12 +102,12 @@ def _entries(compiled_in: int):
         xa_f, l1_f, l2_f = xa.reshape(xa.size), l1.reshape(l1.size), l2.reshape(l2.size)
         etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
         etd2_predict(xl.reshape(xl.size), l1_f, law_coefficients[1], xa_f)
-        rhs_visc(a, xa, v_load, constants, slow, mode, v_ext, i_hold, battery, soc, z_planes, visc_idx, law_c, k2, l2,
+        rhs_visc(a, xa, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, visc_idx, law_c, k2, l2,
                  node_v, rows, scalars, law_rows, False)
         etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
         etd2_correct(xa_f, l1_f, l2_f, law_coefficients[0], law_coefficients[2], xl_next.reshape(xl_next.size))
         if evaluate_next:
-            rhs_visc(x_next, xl_next, v_load, constants, slow, mode, v_ext, i_hold, battery, soc_next, z_planes,
+            rhs_visc(x_next, xl_next, v_load, constants, slow, mode, v_ext, i_hold, soc_next, z_planes,
                      visc_idx, law_c, dX_next, dxl_next, node_v, rows, scalars, law_rows, True)
 
     return evaluate_visc, step_visc
