@@ -8,8 +8,8 @@ realtime_factor_*: sim_seconds / wall seconds of one uninterrupted run of step()
 (``apply_remote``, as the plant service does with each step's CTRL); ``cpu_us_per_step_*`` is the
 process CPU per step of that run (less disturbed by other load than the wall time).
 ``*_4hd_visc_battery`` (F5: batteries on the four SDViSCs' DC links) and ``*_scr2_limiting`` (a grid of
-SCR 2 where the grid-following turbines' limiters act, as in F7/F9's searches) run the general numpy
-path: the compiled step does not cover batteries or an acting limiter.
+SCR 2 where the grid-following turbines' current limiters act, as in F7/F9's searches) run the
+compiled step too: it covers the batteries and every limiter (plant/turbine_kernels.py).
 compute_over_step_fraction_4visc: fraction of the individual step() + measurements() calls of the
 four-hd_visc case whose own compute time exceeded step_s. That is a lower bound of the paced
 service's late fraction (it leaves out sleeping/wake-up jitter, socket I/O and catch-up).
@@ -137,8 +137,7 @@ def main() -> None:
     out["realtime_factor_50wt_4remote_applied"] = round(factor, 3)
     out["cpu_us_per_step_50wt_4remote_applied"] = round(cpu_us, 1)
     # the report's other plants: F5's batteries on the four SDViSCs' DC links, and a weak grid (F7/F9's
-    # searches) where the grid-following turbines' limiters act; both leave the compiled step
-    # (plant/compiled.py covers(): no battery, no limiter acting) for the general numpy path
+    # searches) where the grid-following turbines' current limiters act
     out["realtime_factor_50wt_4hd_visc_battery"] = round(_rate(visc_plant(4, battery=True), t_sim), 3)
     p = Plant(n_turbines=50)
     p.set_scr(WEAK_SCR)
