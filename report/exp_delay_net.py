@@ -96,16 +96,17 @@ def _b1net(ctx: Context) -> dict[str, Finding]:
          "round_trip_samples": {d: s["round_trip_samples"] for d, s in seen.items()}})}
 
 
-def _merged(counts: dict[str, dict[str, int]]) -> dict[int, int]:
-    """The turbines' round-trip histograms (samples -> answers) added up."""
-    out: dict[int, int] = {}
+def _merged(counts: dict[str, dict[str, int]]) -> dict[str, int]:
+    """The turbines' round-trip histograms (samples -> answers) added up, in order of samples; the
+    runner's last bin is ">N" (more than N samples), after N."""
+    out: dict[str, int] = {}
     for hist in counts.values():
         for n, c in hist.items():
-            out[int(n)] = out.get(int(n), 0) + int(c)
-    return dict(sorted(out.items()))
+            out[n] = out.get(n, 0) + int(c)
+    return dict(sorted(out.items(), key=lambda kv: int(kv[0].lstrip(">")) + kv[0].startswith(">")))
 
 
-def _share(hist: dict[int, int]) -> str:
+def _share(hist: dict[str, int]) -> str:
     total = sum(hist.values()) or 1
     return ", ".join(f"{n}: {c / total:.1%}" for n, c in hist.items() if c / total >= 0.001) or "none"
 

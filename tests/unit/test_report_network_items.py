@@ -119,8 +119,11 @@ def test_b1net_adds_up_the_round_trip_histograms_of_the_four():
     from report.exp_delay_net import _merged, _share
 
     hist = _merged({"wt3_1": {"1": 120, "2": 2557}, "wt3_2": {"2": 100, "3": 3}})
-    assert hist == {1: 120, 2: 2657, 3: 3}
+    assert hist == {"1": 120, "2": 2657, "3": 3}
     assert _share(hist) == "1: 4.3%, 2: 95.6%, 3: 0.1%"
+    # the runner's last bin (more than 7 samples) comes last, whatever the order the turbines gave
+    wide = _merged({"wt3_1": {">7": 900, "7": 100}, "wt3_2": {">7": 5, "2": 1000}})
+    assert wide == {"2": 1000, "7": 100, ">7": 905} and list(wide) == ["2", "7", ">7"]
 
 
 def test_a_calibrated_run_that_did_not_hold_is_run_again_and_a_fixed_one_never():
