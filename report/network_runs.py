@@ -17,13 +17,12 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from report.registry import LOCK_WAIT_KEY, Context, NotRun
+from report.registry import LOCK_WAIT_KEY, RERUN_KEY, Context, NotRun
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_SCENARIOS = ROOT / "scenarios" / "paper"
 NETWORK_LOCK = "/tmp/sdvisc-net.lock"  # every run that builds a Mininet network holds it
 RUN_TIMEOUT_S = 1800
-RERUN_KEY = "run_again"  # numbers: the calibrated runs that did not hold and were run at twice their k
 LOCK_HELD_ENV = "SDVISC_NETWORK_LOCK_HELD"  # "1": the caller holds the lock for us (e.g. a test run under flock)
 
 

@@ -8,7 +8,7 @@ import base64
 from html import escape
 from pathlib import Path
 
-from report.registry import LOCK_WAIT_KEY
+from report.registry import LOCK_WAIT_KEY, RERUN_KEY
 
 STYLE = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;color:#222}
@@ -78,7 +78,7 @@ def _experiments_table(exps: list[dict]) -> str:
     body = "".join(
         f"<tr><td><a href='#{escape(e['id'])}'>{escape(e['id'])}</a> {escape(e['title'])}</td>"
         f"<td>{escape(e['paper_figure'])}</td><td>{escape(e['kind'])}</td>{_verdict_cell(_status_class(e['status']), e['status'])}"
-        f"<td>{e['wall_s']} s{_waited(e)}</td><td>{escape(_time_scale_text(e['time_scale']))}</td></tr>" for e in exps)
+        f"<td>{e['wall_s']} s{_waited(e)}</td><td>{escape(_time_scale_text(e['time_scale'], e.get('numbers', {}).get(RERUN_KEY)))}</td></tr>" for e in exps)
     return f"<table>{head}{body}</table>"
 
 
@@ -100,11 +100,17 @@ def _lock_text(wait_s) -> str:
     return f", {wait_s} s of it waiting for the network lock (other work's runs)" if wait_s else ""
 
 
-def _time_scale_text(time_scale) -> str:
-    """A cyber experiment's time scales ({run: k}) as "k = 16 (run)"; an offline one's text as is."""
+def _time_scale_text(time_scale, again: dict | None = None) -> str:
+    """A cyber experiment's time scales ({run: k}) as "k = 16 (run)", with the calibrated k a run did
+    not hold at (``again``: report.network_runs.RERUN_KEY); an offline one's text as is."""
     if isinstance(time_scale, dict):
-        return "; ".join(f"k = {k:g} ({run})" if isinstance(k, (int, float)) else f"{run}: {k}"
-                         for run, k in time_scale.items()) or "—"
+        def one(run, k):
+            if not isinstance(k, (int, float)):
+                return f"{run}: {k}"
+            first = (again or {}).get(run)
+            did_not_hold = f"; at k = {first['time_scale']:g} it did not hold" if first else ""
+            return f"k = {k:g} ({run}{did_not_hold})"
+        return "; ".join(one(run, k) for run, k in time_scale.items()) or "—"
     return str(time_scale)
 
 

@@ -9,6 +9,7 @@ from pathlib import Path
 
 VERDICTS = ("yes", "partly", "no")  # what a computed finding can say
 LOCK_WAIT_KEY = "network_lock_wait_s"  # Context.numbers: per network run, wall seconds waiting for the lock
+RERUN_KEY = "run_again"  # Context.numbers: the calibrated runs that did not hold and ran again at twice their k
 MEASURED = "measured"  # a question the paper does not ask (``PaperClaim.beyond``): a value, no verdict
 NOT_EVALUATED = ("failed", "not run")  # what the report says when no finding exists
 

@@ -136,3 +136,12 @@ def test_a_calibrated_run_that_did_not_hold_is_run_again_and_a_fixed_one_never()
     assert network_runs.did_not_hold({**calibrated, "advice": late}) == late
     assert network_runs.did_not_hold({**calibrated, "advice": held}) is None
     assert network_runs.did_not_hold({**fixed, "advice": late}) is None  # B1net: late on purpose
+
+
+def test_the_page_says_which_calibrated_k_a_run_did_not_hold_at():
+    from report.page import _time_scale_text
+
+    again = {"c2_link_failure_no_dr": {"time_scale": 1.0, "advice": "…", "first_attempt": "/x"}}
+    text = _time_scale_text({"c2_link_failure_no_dr": 2.0, "c2_link_failure_dr": 2.0}, again)
+    assert text == "k = 2 (c2_link_failure_no_dr; at k = 1 it did not hold); k = 2 (c2_link_failure_dr)"
+    assert _time_scale_text("offline (no clock)") == "offline (no clock)"
