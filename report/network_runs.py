@@ -76,6 +76,7 @@ def known_time_scale(data: dict) -> float | None:
     return _chosen_k.get(shape_of(data))
 
 
+LARGEST_CANDIDATE = 64  # the calibration's largest k (scenarios.calibrate.CANDIDATES; --calibrate-from takes no other)
 _chosen_k: dict[str, float] = {}  # shape -> the k its last run's calibration chose (this report process)
 _chosen_k_near: dict[str, float] = {}  # the same for the coarser key of :func:`neighbourhood_of`
 
@@ -135,7 +136,8 @@ def _run_file(ctx: Context, path: Path, name: str) -> tuple[dict, dict[str, np.n
                          f"run again at {2 * k:g}; the first attempt is in {held_not}")
         summary = _attempt(ctx, path, name, out, ["--time-scale", f"{2 * k:g}"])
         k = summary.get("time", {}).get("time_scale")
-        remember_calibration(data, k)  # the next run of this shape starts its search where this one held
+        if k <= LARGEST_CANDIDATE:  # the next run of this shape starts its search where this one held
+            remember_calibration(data, k)
     elif summary.get("time", {}).get("calibration"):
         remember_calibration(data, k)
     ctx.numbers.setdefault("time_scale", {})[name] = k
