@@ -145,3 +145,9 @@ def test_the_page_says_which_calibrated_k_a_run_did_not_hold_at():
     text = _time_scale_text({"c2_link_failure_no_dr": 2.0, "c2_link_failure_dr": 2.0}, again)
     assert text == "k = 2 (c2_link_failure_no_dr; at k = 1 it did not hold); k = 2 (c2_link_failure_dr)"
     assert _time_scale_text("offline (no clock)") == "offline (no clock)"
+
+
+def test_the_report_knows_the_calibrations_largest_candidate():
+    from scenarios.calibrate import CANDIDATES
+
+    assert network_runs.LARGEST_CANDIDATE == max(CANDIDATES)
