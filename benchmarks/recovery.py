@@ -20,7 +20,7 @@ first control packet from the backup, p95 (goal ≤ 60). ``--time-scale K|auto``
 virtual time (figures in simulated ms; the floor stays wall ms). Needs root; ~10 minutes.
 
     python benchmarks/recovery.py [--failures 16] [--failover-runs 20] [--controller-failover-runs 5]
-                                  [--time-scale K|auto] [--out DIR]
+                                  [--time-scale K|auto] [--switch-ports system|afxdp] [--out DIR]
     python benchmarks/recovery.py --all-links [--time-scale K]   # every single-link failure, AK/DR
     python benchmarks/recovery.py --l2-uplinks 32                 # FF on the L2 uplinks: data plane or DR?
 """
@@ -171,6 +171,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--controller-failover-runs", type=int, default=5, help="kills of the master SDN app")
     parser.add_argument("--floor-repeat", type=int, default=20, help="repetitions of the Open vSwitch floor")
     parser.add_argument("--time-scale", default="1", help="K or auto: run the scenarios in virtual time")
+    parser.add_argument("--switch-ports", choices=("system", "afxdp", "afxdp-nonpmd"), default="system",
+                        help="the switch side of every link in the runs and in the floor (scenarios/switch_ports.py)")
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
     parser.add_argument("--all-links", action="store_true",
                         help="only the sweep: every single-link failure of paper, farm compact and farm tower, "
@@ -187,7 +189,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     work = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="sdvisc-recovery-"))
     work.mkdir(parents=True, exist_ok=True)
-    scale = ("--time-scale", args.time_scale)
+    scale = ("--time-scale", args.time_scale, "--switch-ports", args.switch_ports)
     started = time.time()
     if args.all_links:
         load_before = os.getloadavg()
@@ -205,8 +207,9 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(result, indent=1))
         return 0
     load_before = os.getloadavg()
-    floor = ovs_latency.measure(args.floor_repeat) if args.floor_repeat else None
+    floor = ovs_latency.measure(args.floor_repeat, port_type=args.switch_ports) if args.floor_repeat else None
     result: dict = {"benchmark": "recovery", "failures_per_run": args.failures, "time_scale": args.time_scale,
+                    "switch_ports": args.switch_ports,
                     "units": "ms (simulated ms at a time scale above 1; the floor is wall ms)", "floor": floor,
                     "runs": {}}
     records: dict[str, list[dict]] = {m: [] for m in MECHANISMS}
