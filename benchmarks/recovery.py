@@ -43,6 +43,7 @@ from scenario_runs import ROOT, run_file  # benchmarks/scenario_runs.py
 from scenario_runs import run_dict as run
 
 from scenarios.interruptions import aggregate
+from scenarios.switch_ports import SWITCH_PORT_TYPES
 from topologies import topos
 from topologies.base import describe
 
@@ -171,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--controller-failover-runs", type=int, default=5, help="kills of the master SDN app")
     parser.add_argument("--floor-repeat", type=int, default=20, help="repetitions of the Open vSwitch floor")
     parser.add_argument("--time-scale", default="1", help="K or auto: run the scenarios in virtual time")
-    parser.add_argument("--switch-ports", choices=("system", "afxdp", "afxdp-nonpmd"), default="system",
+    parser.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default="system",
                         help="the switch side of every link in the runs and in the floor (scenarios/switch_ports.py)")
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
     parser.add_argument("--all-links", action="store_true",

@@ -6,6 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
+from scenarios.switch_ports import SWITCH_PORT_TYPES
+
 DEFAULT_SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "default.yaml"
 
 
@@ -179,7 +181,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--calibrate-from", type=float, default=None, metavar="K",
                    help="with auto: try K first (e.g. what an earlier run of the same shape chose), then smaller "
                         "ones while they hold, else larger: the same k found in fewer trials")
-    p.add_argument("--switch-ports", choices=("system", "afxdp", "afxdp-nonpmd"), default=None,
+    p.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default=None,
                    help="the switch side of every link (overrides the scenario's switch_ports): system, or AF_XDP "
                         "(afxdp: a PMD thread spins one core, hops ~10x cheaper; falls back to system where refused)")
     p.set_defaults(func=_cmd_run)
