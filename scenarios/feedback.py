@@ -11,7 +11,9 @@ A loss of a ViSC turbine's control packets (the plant's ``ctrl_lost``/``ctrl_res
 (``dr``, ``port_status``, ``sdc_failover``, ``no_path``, ``path_restored``, ``dr_not_acted``);
 ``restored after`` counts from the action that caused it (a ``link_down``, ``kill`` or
 ``impair`` just before), else from the loss. A loss still open after ``follow_s`` is reported
-as such. An action after which no turbine lost its control packets within ``quiet_s`` says so;
+as such. An SDN reaction to a turbine whose control packets the plant never saw stop (its
+acknowledgements went missing, e.g. on a busy machine, and the reroute was hitless) is reported
+``quiet_s`` after the reaction as exactly that, not as a loss. An action after which no turbine lost its control packets within ``quiet_s`` says so;
 a ``visc_on`` is followed until the turbine's first control packet (or its refusal).
 Also: :func:`event_line` (one event as a line, the CLI's ``events``) and :func:`watch_line` (one
 turbine's live numbers, the CLI's ``watch``).
@@ -20,6 +22,8 @@ turbine's live numbers, the CLI's ``watch``).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+
+from plant.live import LOSS_REPORT_S
 
 FOLLOW_S = 2.0  # a loss not restored this long after it started is reported as such
 QUIET_S = 0.5  # an action followed by no loss for this long is reported as harmless
@@ -65,9 +69,16 @@ class _Loss:
     cause: dict | None  # the action just before it
     steps: list[str] = field(default_factory=list)
     reported_open: bool = False
+    seen_by_plant: bool = False  # the plant reported the loss (ctrl_lost), not only an SDN reaction
+    t_reaction: float | None = None  # the SDN app's first reaction to it
 
     def text(self) -> str:
         return "; ".join([f"{self.wt}: control lost at {_s(self.t_loss)}", *self.steps])
+
+    def text_without_loss(self) -> str:
+        return "; ".join([f"{self.wt}: acknowledgements missing from {_s(self.t_loss)}", *self.steps,
+                          f"its control packets did not stop (no pause of {LOSS_REPORT_S * 1e3:.0f} ms "
+                          f"or more at the turbine)"])
 
 
 @dataclass
@@ -148,6 +159,7 @@ class Feedback:
     def _on_ctrl_lost(self, e: dict, t: float) -> list[str]:
         loss = self._loss(e["wt"], float(e.get("t_loss", t)))
         loss.t_loss = float(e.get("t_loss", loss.t_loss))  # the plant knows the last packet exactly
+        loss.seen_by_plant = True
         loss.cause = loss.cause or self._cause(loss.t_loss)
         return []
 
@@ -155,6 +167,8 @@ class Feedback:
         t_loss = e.get("t_loss")
         loss = self._loss(e["wt"], float(t_loss) if t_loss is not None else t)
         loss.steps.append(text)
+        if loss.t_reaction is None:
+            loss.t_reaction = t
         return []
 
     def _on_dr(self, e: dict, t: float) -> list[str]:
@@ -261,8 +275,12 @@ class Feedback:
     # ------------------------------------------------------------------ time passing
     def _expire(self, now: float) -> list[str]:
         out = []
-        for loss in self.losses.values():
-            if not loss.reported_open and now - loss.t_loss >= self.follow_s:
+        for wt, loss in list(self.losses.items()):
+            if (not loss.seen_by_plant and loss.t_reaction is not None
+                    and now - max(loss.t_reaction, loss.t_loss + LOSS_REPORT_S) >= self.quiet_s):
+                del self.losses[wt]  # the plant would have reported a loss by now
+                out.append(loss.text_without_loss())
+            elif not loss.reported_open and now - loss.t_loss >= self.follow_s:
                 loss.reported_open = True
                 out.append(f"{loss.text()}; not restored {self.follow_s:.1f} s later")
         keep = []

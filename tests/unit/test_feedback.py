@@ -52,6 +52,33 @@ def test_a_loss_nothing_repairs_is_reported_open_then_closed():
     assert lines == ["wt1_1: control restored at 12.50 s, 7.50 s after it was lost"]
 
 
+def test_a_dr_on_missing_acknowledgements_without_a_loss_at_the_turbine_is_not_called_a_loss():
+    # seen in a test on a busy machine: the AKs stopped, DR rerouted hitlessly before the link was cut,
+    # the plant never saw a pause of 20 ms; this must not read "control lost ... not restored"
+    fb = Feedback(follow_s=2.0, quiet_s=0.5)
+    fb.feed([{"t": 2.693, "source": "sdn_app", "type": "dr", "wt": "wt1_1", "t_loss": 2.652,
+              "old_path": OLD, "new_path": NEW}], 2.70)
+    fb.feed([cli_link_down(2.696)], 2.70)
+    assert fb.feed([], 3.1) == []  # the plant could still report the loss
+    assert fb.feed([], 3.2) == [
+        "wt1_1: acknowledgements missing from 2.65 s; DR at 2.69 s; new path sdc1-s1-s4-l2-wt1_1; its control "
+        "packets did not stop (no pause of 20 ms or more at the turbine)",
+        "link s1-s3 down: no ViSC turbine lost its control packets in the 0.5 s after it"]
+    assert fb.feed([], 5.0) == []  # said once, never "not restored"
+    assert fb.losses == {}
+
+
+def test_a_dr_whose_loss_the_plant_reports_late_is_still_followed_to_its_restoration():
+    fb = Feedback(follow_s=2.0, quiet_s=0.5)
+    fb.feed([{"t": 4.04, "source": "sdn_app", "type": "dr", "wt": "wt1_1", "t_loss": 4.0,
+              "old_path": OLD, "new_path": NEW}], 4.05)
+    fb.feed([{"t": 4.3, "source": "plant", "type": "ctrl_lost", "wt": "wt1_1", "t_loss": 4.001}], 4.3)
+    assert fb.feed([], 4.8) == []  # the plant saw it: no "did not stop" line
+    assert fb.feed([{"t": 4.9, "source": "plant", "type": "ctrl_restored", "wt": "wt1_1", "t_loss": 4.001,
+                     "gap_ms": 899.0}], 4.9) == [
+        "wt1_1: control lost at 4.00 s; DR at 4.04 s; new path sdc1-s1-s4-l2-wt1_1; restored after 899 ms"]
+
+
 def test_a_loss_while_no_sdn_app_runs_says_why_nothing_reacts():
     fb = Feedback(follow_s=2.0)
     assert fb.feed([{"t": 2.589, "source": "runner", "type": "no_controller"}], 2.6) == [
