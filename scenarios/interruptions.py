@@ -9,7 +9,10 @@ path crossed the failed link, or that the killed SDC served; every turbine that 
 control if the record does not say):
 
 * ``interruption_ms``: the longest pause that ends after ``t_f`` and begins before the turbine's
-  control came back for good (at most ``window_s`` after the fault), or ``None`` when there was no
+  control came back for good — :data:`STEADY_S` without a pause: the first pause counts if it begins
+  within ``STEADY_S`` of the fault, each further one if it begins within ``STEADY_S`` of the end of
+  the one before (a pause 0.7 s after a hitless repair, a busy machine's, is not the fault's); at most
+  ``window_s`` after the fault — or ``None`` when there was no
   pause above :data:`GAP_MIN_STEPS` samples (``above_2ts`` False: a repair faster than two samples
   — still counted, as "no interruption above 2·Ts");
 * ``restored_ms``: fault → the first control packet after that pause (packets already in flight
@@ -24,6 +27,7 @@ import numpy as np
 from plant.service import CTRL_GAP_STEPS as GAP_MIN_STEPS  # the plant records pauses longer than this (steps)
 
 WINDOW_S = 1.0
+STEADY_S = 0.1  # control without a pause this long (2.5 DR holds) is back for good
 
 
 def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, step_s: float, duration_s: float,
@@ -48,7 +52,7 @@ def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, st
             last = stats.get("last_ctrl_wall")
             last_t = last - t0 if last is not None else None
             stopped = last_t is not None and last_t < end and last_t < duration_s - 2 * GAP_MIN_STEPS * step_s
-            around = [(a, b) for a, b in gaps if b > t_f and a < end]
+            around = _of_the_fault(sorted((a, b) for a, b in gaps if b > t_f and a < end), t_f)
             longest = max(around, key=lambda g: g[1] - g[0], default=None)
             out.append({
                 "wt": wt, "fault": fault.get("type"), "t_fault": round(t_f, 6),
@@ -59,6 +63,18 @@ def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, st
                 "recovered": not stopped,
                 "t_loss": round(longest[0], 6) if longest else (round(last_t, 6) if stopped else None),
             })
+    return out
+
+
+def _of_the_fault(pauses: list[tuple[float, float]], t_f: float) -> list[tuple[float, float]]:
+    """The pauses (sorted by start) before control was back for good after the fault at ``t_f``."""
+    out: list[tuple[float, float]] = []
+    steady_from = t_f
+    for a, b in pauses:
+        if a > steady_from + STEADY_S:
+            break
+        out.append((a, b))
+        steady_from = max(steady_from, b)
     return out
 
 
