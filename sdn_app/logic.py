@@ -123,7 +123,8 @@ class Controller:
         return []
 
     def tick(self, now: float) -> list:
-        """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state."""
+        """Timer entry point: SDC liveness and confirmed DR events. Sends nothing in steady state.
+        Also run on every AK = 0 (a turbine's report that its loss lasted the hold acts at once)."""
         actions = self.guard.check(now)
         # a turbine whose SDC is dead is failed over, not rerouted; one with no path waits for the
         # topology to change. A merely *suspected* SDC never holds a DR back: the DR stands on the
@@ -184,6 +185,8 @@ class Controller:
             return []
         st.counters["ak_rx"] += 1
         st.tables.set_comm(name, comm_on=bool(msg["ak"]))
+        if not msg["ak"]:  # the report that confirms a DR acts at once, not at the next tick
+            return self.tick(now)
         return []
 
     def _on_reply(self, msg: wire.Message, src_ip: str, src_mac: str, now: float, where=None) -> list:

@@ -173,6 +173,25 @@ def test_a_partition_is_reported_once_and_healed_when_a_link_returns():
     assert {m["cmd"] for _, _, m in cmds} >= {wire.Command.START_INSTANCE, wire.Command.STREAM_START}  # re-engaged
 
 
+def test_the_ak_that_confirms_the_hold_reroutes_at_once_without_waiting_for_a_tick():
+    ctl = Controller(make_config(), now=0.0)
+    for k in range(1, 100):
+        _hb(ctl, "sdc1", k, 0.01 * k)
+        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
+    _visc_on(ctl, now=0.5)
+    ctl.take_events()
+    for k in range(1, 50):  # control packets arrive normally until 1.0 s
+        _ak(ctl, "wt1_1", k, 1, 0.0, 0.5 + 0.01 * k)
+    t_loss = 1.0
+    for k, age in enumerate((0.010, 0.020, 0.030), start=50):  # AK = 0 reports, no tick in between
+        assert _ak(ctl, "wt1_1", k, 0, age, t_loss + age) == []
+        _hb(ctl, "sdc1", 100 + k, t_loss + age + 0.0001)
+    actions = _ak(ctl, "wt1_1", 53, 0, 0.0401, t_loss + 0.0401)  # the turbine's report at the hold
+    (dr,) = [e for e in ctl.take_events() if e["type"] == "dr"]
+    assert dr["t_wall"] == pytest.approx(t_loss + 0.0401) and dr["t_loss"] == pytest.approx(t_loss)
+    assert any(isinstance(a, fl.FlowAdd) for a in actions)  # the new path's flows, from the packet-in itself
+
+
 def test_dr_that_does_not_bring_control_back_backs_off():
     from sdn_app.dr import DrMonitor
 
@@ -268,13 +287,11 @@ def test_a_dr_after_the_turbine_fell_back_reengages_it():
     _ak(ctl, "wt1_1", 2, 0, 0.030, 1.63)
     short = ctl.tick(1.64)
     assert short == []
-    _ak(ctl, "wt1_1", 3, 0, 0.041, 1.641)
-    first = ctl.tick(1.642)  # a 41 ms loss: reroute only
+    first = _ak(ctl, "wt1_1", 3, 0, 0.041, 1.641)  # a 41 ms loss: reroute only (on the AK that reports it)
     cmds = [decode_out(a)[2]["cmd"] for a in first if isinstance(a, fl.PacketOut) and not is_learn(a)]
     assert any(isinstance(a, fl.FlowAdd) for a in first) and cmds == []
     for barrier in [a for a in first if isinstance(a, fl.Barrier)]:  # the switches acknowledge the new path
         ctl.barrier_reply(barrier.dpid, barrier.tag, 1.645)
-    _ak(ctl, "wt1_1", 4, 0, 0.160, 1.76)  # the loss goes on for 160 ms: the turbine has fallen back
-    second = ctl.tick(1.761)
+    second = _ak(ctl, "wt1_1", 4, 0, 0.160, 1.76)  # the loss goes on for 160 ms: the turbine has fallen back
     cmds = {decode_out(a)[2]["cmd"] for a in second if isinstance(a, fl.PacketOut) and not is_learn(a)}
     assert cmds == {wire.Command.START_INSTANCE, wire.Command.STREAM_START}

@@ -92,8 +92,8 @@ def test_dr_reroutes_on_a_link_disjoint_path_after_the_hold():
     ak(ctl, 2, 0, 0.012, 1.52)  # loss since 1.508 (no port status seen: silent failure)
     ak(ctl, 3, 0, 0.032, 1.54)
     assert ctl.tick(1.548) == []
-    ak(ctl, 4, 0, 0.041, 1.549)  # the turbine reports a loss as long as the hold
-    actions = ctl.tick(1.508 + HOLD + 0.001)
+    # the turbine reports a loss as long as the hold: its AK reroutes at once (no tick waited for)
+    actions = ak(ctl, 4, 0, 0.041, 1.508 + HOLD + 0.001)
     deletes = [a for a in actions if isinstance(a, fl.FlowDelete)]
     adds = [a for a in actions if isinstance(a, fl.FlowAdd)]
     assert deletes and all(d.cookie == fl.turbine_cookie(101) for d in deletes)
@@ -203,15 +203,18 @@ def test_all_sdcs_silent_at_once_is_not_a_failover():
     assert ctl.tick(1.40) == []  # both stale: our own stall, not two deaths
     assert ctl.active_sdc == "sdc1" and not ctl.sdc_dead
     ak(ctl, 1, 1, 0.001, 1.32)
-    ak(ctl, 2, 0, 0.02, 1.41)  # packets again after a stall, and wt1_1 has lost its control packets
+    ak(ctl, 2, 1, 0.001, 1.41)  # packets again after a stall; wt1_1 served until 1.411
     heartbeat(ctl, "sdc2", 3, 1.41)
     # sdc1's heartbeats may still be queued behind the stall: its silence counts from its end
     assert ctl.tick(1.42) == [] and ctl.active_sdc == "sdc1"
-    for k, t in enumerate((1.42, 1.43, 1.44)):
+    actions = []
+    for k, t in enumerate((1.42, 1.43, 1.44)):  # wt1_1 reports its loss (since 1.411: below the hold)
         heartbeat(ctl, "sdc2", 4 + k, t)
-        ak(ctl, 3 + k, 0, t - 1.39, t)
-    assert ctl.tick(1.441)  # sdc1 silent 31 ms after the stall, sdc2 alive: fail over
-    assert ctl.active_sdc == "sdc2"
+        actions += ak(ctl, 3 + k, 0, t - 1.411, t)
+    actions += ctl.tick(1.441)
+    assert actions and ctl.active_sdc == "sdc2"  # sdc1 silent 30 ms after the stall, sdc2 alive: fail over
+    kinds = [e["type"] for e in ctl.take_events()]
+    assert "sdc_failover" in kinds and "dr" not in kinds  # (decided on the AK at 1.44 or the tick)
 
 
 def test_late_heartbeats_while_turbines_are_served_are_not_a_death():
@@ -233,22 +236,24 @@ def test_late_heartbeats_while_turbines_are_served_are_not_a_death():
     ak(ctl, 18, 0, 0.015, 1.37)  # now wt1_1 reports a loss too, but only of 15 ms: not yet evidence
     heartbeat(ctl, "sdc2", 19, 1.37)
     assert ctl.tick(1.372) == [] and not ctl.sdc_dead
-    ak(ctl, 19, 0, 0.025, 1.38)  # 25 ms without control packets, sdc1 silent for 80 ms: dead
+    actions = ak(ctl, 19, 0, 0.025, 1.38)  # 25 ms without control packets, sdc1 silent for 80 ms: dead
     heartbeat(ctl, "sdc2", 20, 1.38)
-    assert ctl.tick(1.381) and ctl.active_sdc == "sdc2"
+    assert actions + ctl.tick(1.381) and ctl.active_sdc == "sdc2"
 
 
 def _barriers(actions):
     return [a for a in actions if isinstance(a, fl.Barrier)]
 
 
-def _lose_control(ctl, seq0, since, until, start=None, now_step=0.010):
+def _lose_control(ctl, seq0, since, until, start=None, now_step=0.010, actions=None):
     """AKs = 0 every 10 ms after ``start`` (default ``since``) until ``until``, each reporting the
-    loss since ``since`` (the turbine's own report)."""
+    loss since ``since`` (the turbine's own report); what the app sent in reply goes to ``actions``."""
     seq, now = seq0, (since if start is None else start) + now_step
     while now <= until + 1e-9:
         seq += 1
-        ak(ctl, seq, 0, now - since, round(now, 6))
+        out = ak(ctl, seq, 0, now - since, round(now, 6))
+        if actions is not None:
+            actions += out
         now += now_step
     return seq
 
@@ -262,15 +267,16 @@ def test_every_switch_of_a_new_path_gets_a_barrier_and_a_late_reply_is_not_a_sec
     for b in _barriers(first_path):
         ctl.barrier_reply(b.dpid, b.tag, 1.01)
     ak(ctl, 1, 1, 0.0, 1.5)
-    seq = _lose_control(ctl, 1, 1.508, 1.549)
-    rerouted = ctl.tick(1.550)
+    rerouted = []
+    seq = _lose_control(ctl, 1, 1.508, 1.549, actions=rerouted)  # the AK at 1.548 reports the hold: DR at once
+    rerouted += ctl.tick(1.550)
     barriers = _barriers(rerouted)
     new_path = ctl.paths["wt1_1"]
     assert {b.dpid for b in barriers} == {ctl.dpids[n] for n in new_path.path if n in ctl.dpids}
     assert all(b.tag == f"wt1_1#{new_path.reroutes}" for b in barriers)
     # the turbine keeps reporting the loss while the switches are slow to install the new path
     seq = _lose_control(ctl, seq, 1.508, 1.600, start=1.549)
-    assert [e for e in ctl.take_events() if e["type"] == "dr"][0]["t_detect"] == pytest.approx(1.55)
+    assert [e for e in ctl.take_events() if e["type"] == "dr"][0]["t_detect"] == pytest.approx(1.548)
     assert ctl.tick(1.600) == []  # 50 ms after the reroute: without readiness this was a second DR
     for b in barriers[:-1]:
         ctl.barrier_reply(b.dpid, b.tag, 1.610)
@@ -287,16 +293,19 @@ def test_a_new_path_that_does_not_deliver_is_detected_after_the_hold_from_its_re
     ctl = Controller(make_config(backup_sdc=None), now=0.0)
     visc_on(ctl, 1.0)
     ak(ctl, 1, 1, 0.0, 1.5)
-    seq = _lose_control(ctl, 1, 1.508, 1.549)
-    barriers = _barriers(ctl.tick(1.550))
+    rerouted = []
+    seq = _lose_control(ctl, 1, 1.508, 1.549, actions=rerouted)
+    barriers = _barriers(rerouted + ctl.tick(1.550))
     for b in barriers:
         ctl.barrier_reply(b.dpid, b.tag, 1.560)
     ctl.take_events()
     # control does not come back over the new path: the second DR waits the (doubled) hold from 1.560
-    seq = _lose_control(ctl, seq, 1.508, 1.60, start=1.549)
-    assert ctl.tick(1.60) == []
-    _lose_control(ctl, seq, 1.508, 1.66, start=1.60)
-    assert any(isinstance(a, fl.FlowAdd) for a in ctl.tick(1.66))
+    early = []
+    seq = _lose_control(ctl, seq, 1.508, 1.60, start=1.549, actions=early)
+    assert early + ctl.tick(1.60) == []
+    second = []
+    _lose_control(ctl, seq, 1.508, 1.66, start=1.60, actions=second)
+    assert any(isinstance(a, fl.FlowAdd) for a in second + ctl.tick(1.66))
     (dr,) = [e for e in ctl.take_events() if e["type"] == "dr"]
     assert dr["t_loss"] >= 1.560
 
