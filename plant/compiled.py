@@ -166,6 +166,18 @@ class CompiledPath:
         aux = CompiledAux(out, rows, self.n, self.size, (xl, law_rows)) if want_aux else None
         return out[self.size:2 * self.size], dxl, aux
 
+    def step_evaluating_first_stage(self, X, coefficients, turbines, v_load: complex, evaluate_next: bool):
+        """One ETD2 step of X (``Etd2Coefficients``) whose first stage is evaluated in the same
+        compiled call (no hd_visc turbines, no connected batteries): (X+, (dX+, aux+) or None, the
+        first stage's PCC voltage). The same step as ``evaluate`` followed by ``step``."""
+        out, rows = self._buffers()
+        v_pcc = kernels.step_evaluating_first_stage(X, coefficients.rows, v_load, self.constants, self.held.rows,
+                                                    turbines.mode, turbines.v_hold, turbines.i_hold,
+                                                    turbines.batt.soc, self.z_planes, out, rows, evaluate_next)
+        if not evaluate_next:
+            return out[:self.size], None, v_pcc
+        return out[:self.size], (out[self.size:2 * self.size], CompiledAux(out, rows, self.n, self.size)), v_pcc
+
     def step(self, X, k1, coefficients, turbines, soc_next, v_load: complex, evaluate_next: bool, law=None):
         """One ETD2 step of X (first stage k1, ``Etd2Coefficients``) and, with hd_visc turbines
         (``law`` = (xl, l1, their Etd2Coefficients, visc_idx, law_c)), of their law states:
@@ -208,6 +220,8 @@ def load_kernels() -> None:
     kernels.evaluate(X, 1j, constants, slow, mode, v_ext, v_ext, soc, z_planes, out, rows)
     kernels.step(X, out[size:2 * size], np.ones((3, 2 * size)), 1j, constants, slow, mode, v_ext, v_ext, soc,
                  soc.copy(), z_planes, out, rows, True)
+    kernels.step_evaluating_first_stage(X, np.ones((3, 2 * size)), 1j, constants, slow, mode, v_ext, v_ext, soc,
+                                        z_planes, out, rows, True)
     node_v = np.ones(3, dtype=complex)
     sources = kernels.evaluate_network(X, 1j, constants, z_planes, node_v)
     kernels.evaluate_given_network(X, node_v, sources, constants, slow, mode, v_ext, v_ext, soc,

@@ -168,6 +168,26 @@ def rhs(X, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, dX, node
 
 
 @njit(**_OPTS)
+def etd2_step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, soc, soc_next, z_planes, out, rows,
+              evaluate_next):
+    """One ETD2 step from X with first stage k1 (``Etd2Coefficients.rows``) into ``out``'s X+
+    and, with ``evaluate_next``, the evaluation of X+ into the rest of ``out`` and ``rows``. The
+    batteries' SOC is ``soc`` in the second stage and ``soc_next`` in X+'s evaluation (the SOC
+    of the next step, plant/battery.py)."""
+    size = X.size
+    x_next, dX_next, node_v, scalars = split(out, size, slow.shape[1])
+    a = np.empty(size, dtype=np.complex128)
+    k2 = np.empty(size, dtype=np.complex128)
+    a_f, k1_f, k2_f = a.view(np.float64), k1.view(np.float64), k2.view(np.float64)
+    etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
+    rhs(a, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, k2, node_v, rows, scalars, False)
+    etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
+    if evaluate_next:
+        rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, soc_next, z_planes, dX_next, node_v,
+            rows, scalars, True)
+
+
+@njit(**_OPTS)
 def slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow):
     """The slow mechanical terms (TurbineBank.slow_terms) into ``slow`` (rows ``Slow``)."""
     n = v_wind.shape[0]
@@ -227,23 +247,30 @@ def _entries(compiled_in: int):
     @njit(cache=True, **_OPTS)
     def step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, soc, soc_next, z_planes, out,
              rows, evaluate_next):
-        """One ETD2 step from X with first stage k1 (``Etd2Coefficients.rows``) into ``out``'s X+
-        and, with ``evaluate_next``, the evaluation of X+ into the rest of ``out`` and ``rows``. The
-        batteries' SOC is ``soc`` in the second stage and ``soc_next`` in X+'s evaluation (the SOC
-        of the next step, plant/battery.py)."""
+        """``etd2_step`` as an entry point: the step from the cached first stage k1."""
         if compiled_in == 0:  # never true (see above)
             return
-        size = X.size
-        x_next, dX_next, node_v, scalars = split(out, size, slow.shape[1])
-        a = np.empty(size, dtype=np.complex128)
-        k2 = np.empty(size, dtype=np.complex128)
-        a_f, k1_f, k2_f = a.view(np.float64), k1.view(np.float64), k2.view(np.float64)
-        etd2_predict(X.view(np.float64), k1_f, coefficients[1], a_f)
-        rhs(a, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, k2, node_v, rows, scalars, False)
-        etd2_correct(a_f, k1_f, k2_f, coefficients[0], coefficients[2], x_next.view(np.float64))
-        if evaluate_next:
-            rhs(x_next, v_load, constants, slow, mode, v_ext, i_hold, soc_next, z_planes, dX_next, node_v,
-                rows, scalars, True)
+        etd2_step(X, k1, coefficients, v_load, constants, slow, mode, v_ext, i_hold, soc, soc_next, z_planes, out,
+                  rows, evaluate_next)
+
+    @njit(cache=True, **_OPTS)
+    def step_evaluating_first_stage(X, coefficients, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes,
+                                    out, rows, evaluate_next):
+        """The evaluation of X (its first stage k1, at the PCC voltage ``v_load`` of the last solve)
+        and ``etd2_step`` from it in one call: the step after new remote references (or a command)
+        made the cached first stage stale. The batteries' SOC is ``soc`` throughout (the caller
+        takes this path without connected batteries). Returns the first stage's PCC voltage (the
+        load linearisation point of the step and of the next evaluation)."""
+        if compiled_in == 0:  # never true (see above)
+            return 0j
+        n = slow.shape[1]
+        k1 = np.empty(X.size, dtype=np.complex128)
+        _, _, node_v, scalars = split(out, X.size, n)
+        rhs(X, v_load, constants, slow, mode, v_ext, i_hold, soc, z_planes, k1, node_v, rows, scalars, False)
+        v_pcc = node_v[n]
+        etd2_step(X, k1, coefficients, v_pcc, constants, slow, mode, v_ext, i_hold, soc, soc, z_planes, out, rows,
+                  evaluate_next)
+        return v_pcc
 
     @njit(cache=True, **_OPTS)
     def evaluate_network(X, v_load, constants, z_planes, node_v):
@@ -259,11 +286,11 @@ def _entries(compiled_in: int):
             return
         slow_terms(X, constants, v_wind, mppt, p_cmd, q_cmd, slow)
 
-    return evaluate, evaluate_given_network, step, evaluate_network, hold_slow_terms
+    return evaluate, evaluate_given_network, step, step_evaluating_first_stage, evaluate_network, hold_slow_terms
 
 
 # the cached entry points, keyed by the sources they compile in
-evaluate, evaluate_given_network, step, evaluate_network, hold_slow_terms = _entries(
+evaluate, evaluate_given_network, step, step_evaluating_first_stage, evaluate_network, hold_slow_terms = _entries(
     source_key(turbine_kernels, turbine_laws, integrator, slots, turbine, condenser, layout))
 
 

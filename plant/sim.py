@@ -58,6 +58,7 @@ class Plant(Commands, RightHandSide):
         self._mode_key = None
         self._compiled = CompiledPath(self.params.turbine, self.layout, self.tb.batt) if jit else None  # jit=False: numpy only
         self.compiled_law = True  # False: the hd_visc law in numpy between compiled kernels (a test's reference)
+        self.fuse_first_stage = True  # False: a stale first stage evaluated in a call of its own (a test's reference)
         self._law_c = None  # (ViscParams, count, law.param_rows) for the compiled law
         self._any_battery = False  # any turbine's battery connected (kept by set_battery: not an array scan per step)
         self.slow_every = max(1, int(slow_every))
@@ -105,13 +106,17 @@ class Plant(Commands, RightHandSide):
     def _eval_cached(self):
         """(dX, dxl, aux) of the present state, evaluated once (the first stage of the next step)."""
         if self._cache is None:
-            # slow terms: re-evaluated every ``slow_every`` steps and after any command/event
-            if not self._slow_keep or self.tb.slow is None or self.k >= self._slow_next:
-                self._hold_slow(after_command=not self._slow_keep)
-                self._slow_next = self.k + self.slow_every
-            self._slow_keep = False
+            self._hold_slow_if_due()
             self._cache = self._evaluate(self.X, self.xl, want_aux=True)
         return self._cache
+
+    def _hold_slow_if_due(self) -> None:
+        """Before an evaluation of the present state: the slow terms are re-evaluated every
+        ``slow_every`` steps and after any command/event."""
+        if not self._slow_keep or self.tb.slow is None or self.k >= self._slow_next:
+            self._hold_slow(after_command=not self._slow_keep)
+            self._slow_next = self.k + self.slow_every
+        self._slow_keep = False
 
     def _hold_slow(self, after_command: bool) -> None:
         """Evaluate and hold the slow terms; after a command (or at the start) also hand the
@@ -129,6 +134,16 @@ class Plant(Commands, RightHandSide):
             self.apply_remote(*remote_inputs)
         self._check_fallback()
         self.net.ensure()
+        if self._cache is None and self.fuse_first_stage and self._compiled is not None and self.xl is None \
+                and not self._any_battery and self.substeps == 1 and self.method != "rk4":
+            # the first stage is stale (new remote references, a command): evaluated in the step's call
+            self._hold_slow_if_due()
+            if self._compiled.covers(self.tb, self.net):
+                x_next, evaluation, self._v_pcc_last = self._compiled.step_evaluating_first_stage(
+                    self.X, self._coefficients(self.step_s), self.tb, self._v_pcc_last, self.k + 1 < self._slow_next)
+                self._advance(None, x_next, None, evaluation)
+                return
+            self._cache = self._evaluate(self.X, self.xl, want_aux=True)
         k1, l1, aux = self._eval_cached()
         self._v_pcc_last = aux["v_pcc"]
         counted = self._battery_after_step(aux)

@@ -49,17 +49,23 @@ def _send_iref(p):
 
 
 def _count_compiled_steps(p) -> list[int]:
-    """[numpy-path steps, compiled steps] of plant ``p`` from now on (counted around its compiled step)."""
+    """[numpy-path steps, compiled steps] of plant ``p`` from now on (counted around its compiled
+    steps: from the cached first stage, and with the first stage evaluated in the same call)."""
     counts = [0, 0]
     if p._compiled is not None:
-        inner = p._compiled.step
+        inner, fused = p._compiled.step, p._compiled.step_evaluating_first_stage
 
         def counting(*a):
             r = inner(*a)
             counts[r is not None] += 1
             return r
 
+        def counting_fused(*a):
+            counts[True] += 1
+            return fused(*a)
+
         p._compiled.step = counting
+        p._compiled.step_evaluating_first_stage = counting_fused
     return counts
 
 

@@ -35,13 +35,14 @@ def _track(p: Plant) -> list[int]:
 
     p._rhs_general = counting_general
     if p._compiled is not None:
-        step = p._compiled.step
+        for name in ("step", "step_evaluating_first_stage"):  # from the cached first stage, or evaluating it
+            step = getattr(p._compiled, name)
 
-        def counting_step(*a):
-            counts[1] += 1
-            return step(*a)
+            def counting_step(*a, step=step):
+                counts[1] += 1
+                return step(*a)
 
-        p._compiled.step = counting_step
+            setattr(p._compiled, name, counting_step)
     return counts
 
 
