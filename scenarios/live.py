@@ -20,11 +20,11 @@ from pathlib import Path
 from scenarios.cli_ext import TestbedCLI
 from scenarios.feedback import Feedback
 from scenarios.processes import RunError
+from scenarios.summary import on_run_clock
 from scenarios.web import LiveView
 
 EVENT_FILES = {"sdn_events.jsonl": "sdn_app", "sdn2_events.jsonl": "sdn_app2", "owfcc_events.jsonl": "owfcc",
                "plant_events.jsonl": "plant"}
-CLOCK_KEYS = ("t_loss", "t_detect", "t_last_heartbeat", "t_last_peer")  # in events with t_wall: clock readings
 NOTIFY_EVERY_S = 0.1  # wall seconds between two looks at the event files
 MAX_EVENTS_KEPT = 100_000
 PLAY_JOIN_S = 60.0  # wall seconds the session waits for the plant and the controllers to stop
@@ -58,11 +58,7 @@ class EventTail:
                     e = json.loads(line)
                 except ValueError:
                     continue
-                if "t_wall" in e:
-                    e["t"] = round(e.pop("t_wall") - self.t0, 6)
-                    for key in CLOCK_KEYS:  # the SDN app's other times are clock readings too
-                        if isinstance(e.get(key), (int, float)):
-                            e[key] = round(e[key] - self.t0, 6)
+                on_run_clock(e, self.t0)  # the SDN app's other times are clock readings too
                 e.setdefault("source", source)
                 new.append(e)
         count = len(self.runner_events)

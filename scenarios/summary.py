@@ -36,12 +36,26 @@ def _read_jsonl(path: Path) -> list[dict]:
         return []
 
 
+CLOCK_KEYS = ("t_loss", "t_detect", "t_last_heartbeat", "t_last_peer")  # in events with t_wall: clock readings
+
+
+def on_run_clock(e: dict, t0: float) -> dict:
+    """A component's event with its clock readings (``t_wall`` and the SDN app's :data:`CLOCK_KEYS`)
+    as seconds from t = 0, ``t_wall`` becoming ``t`` (changes and returns ``e``)."""
+    if "t_wall" in e:
+        e["t"] = round(e.pop("t_wall") - t0, 6)
+        for key in CLOCK_KEYS:
+            if isinstance(e.get(key), (int, float)):
+                e[key] = round(e[key] - t0, 6)
+    return e
+
+
 def _wall_to_t(events: list[dict], t0: float | None, source: str) -> list[dict]:
     out = []
     for e in events:
         e = dict(e)
-        if "t_wall" in e and t0 is not None:
-            e["t"] = round(e.pop("t_wall") - t0, 6)
+        if t0 is not None:
+            on_run_clock(e, t0)
         e.setdefault("source", source)
         out.append(e)
     return out

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from scenarios.summary import recoveries
+from scenarios.summary import on_run_clock, recoveries
 
 T0 = 1000.0
 
@@ -70,3 +70,14 @@ def test_rejections_by_service_and_reason():
                       "wire": {"ok": 100, "length": 3, "rejected": 3}}, {"rx_reject_unknown_req_id": 4})
     assert out["sdc1"] == {"unknown_turbine": 5} and out["sdn_app"] == {"bad_value": 1, "length": 3}
     assert out["owfcc"] == {"unknown_req_id": 4} and out["total"] == 2 + 1 + 5 + 1 + 3 + 4
+
+
+def test_events_jsonl_has_the_sdn_apps_clock_readings_on_the_run_axis():
+    # seen in a recovery run: events.jsonl's dr had t on the run's axis but t_loss/t_detect as clock readings
+    # (summary.py and the live event tail both put events through on_run_clock)
+    e = on_run_clock({"t_wall": T0 + 2.05, "type": "dr", "wt": "wt1_1", "t_loss": T0 + 2.001, "t_detect": T0 + 2.05,
+                      "new_path": ["sdc1", "s1"]}, T0)
+    assert e["t"] == pytest.approx(2.05) and e["t_loss"] == pytest.approx(2.001) and e["t_detect"] == pytest.approx(2.05)
+    assert "t_wall" not in e and e["new_path"] == ["sdc1", "s1"]
+    plant = on_run_clock({"t": 2.06, "type": "ctrl_restored", "t_loss": 2.01}, T0)  # already on the axis
+    assert plant["t_loss"] == 2.01
