@@ -194,7 +194,8 @@ def main(argv: list[str] | None = None) -> int:
     started = time.time()
     if args.all_links:
         load_before = os.getloadavg()
-        result = {"benchmark": "recovery --all-links", "time_scale": args.time_scale, **all_links(work, scale),
+        result = {"benchmark": "recovery --all-links", "time_scale": args.time_scale,
+                  "switch_ports": args.switch_ports, **all_links(work, scale),
                   "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_before": load_before,
                               "load_after": os.getloadavg()}, "wall_s": round(time.time() - started, 1)}
         print(json.dumps(result, indent=1))
@@ -202,7 +203,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.l2_uplinks:
         load_before = os.getloadavg()
         result = {"benchmark": "recovery --l2-uplinks", "time_scale": args.time_scale,
-                  **l2_uplinks(work, scale, args.l2_uplinks),
+                  "switch_ports": args.switch_ports, **l2_uplinks(work, scale, args.l2_uplinks),
                   "machine": {"platform": platform.platform(), "cpus": os.cpu_count(), "load_before": load_before,
                               "load_after": os.getloadavg()}, "wall_s": round(time.time() - started, 1)}
         print(json.dumps(result, indent=1))
