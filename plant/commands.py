@@ -16,6 +16,21 @@ from plant import turbine as T
 from sdc_unit import law
 from sdc_unit.params import ViscParams
 
+_INTP, _FLOAT64 = np.dtype(np.intp), np.dtype(np.float64)
+
+
+def _service_arrays(idx, refs) -> bool:
+    """True for the plant service's arguments of ``apply_remote``: a 1-d ``intp`` index array and
+    ``float64`` reference arrays of its shape (dtype identity: a dtype that merely compares equal
+    takes the general path, with the same result)."""
+    if type(idx) is not np.ndarray or idx.dtype is not _INTP or idx.ndim != 1:
+        return False
+    shape = idx.shape
+    for r in refs:
+        if type(r) is not np.ndarray or r.dtype is not _FLOAT64 or r.shape != shape:
+            return False
+    return True
+
 
 class Commands:
     """The commands of :class:`plant.sim.Plant` (see the module docstring)."""
@@ -26,8 +41,7 @@ class Commands:
         tb = self.tb
         refs = (v_ref_d, v_ref_q, i_ref_d, i_ref_q) if i_ref_d is not None and i_ref_q is not None else (v_ref_d, v_ref_q)
         idx = index_array
-        if (type(idx) is np.ndarray and idx.dtype == np.intp and idx.ndim == 1
-                and all(type(r) is np.ndarray and r.dtype == np.float64 and r.shape == idx.shape for r in refs)):
+        if _service_arrays(idx, refs):
             # the plant service's call, every step: one compiled loop instead of small-array numpy
             kernels.store_remote(tb.v_hold, tb.i_hold, tb.last_rx_step, idx, refs[0], refs[1], refs[-2], refs[-1],
                                  len(refs) == 4, self.k)
