@@ -1,6 +1,6 @@
 """What Open vSwitch itself needs on this machine to move a packet stream, without the testbed.
 
-Usage (root):  .venv/bin/python benchmarks/ovs_latency.py [--repeat 20] [--load 0] [--idle-ports 0]   (~1 min)
+Usage (root):  .venv/bin/python benchmarks/ovs_latency.py [--repeat 20] [--load 0]   (~1 min)
 
 One bridge of the testbed's switch class (the userspace datapath where the kernel has no Open
 vSwitch module), host h1 sending a 1500 packet/s UDP stream (the testbed's rate at Ts = 0.67 ms)
@@ -15,8 +15,7 @@ Two measurements, ``--repeat`` times each:
   time to the first frame at h3. This is the whole of a fast-failover repair.
 
 ``--load K`` adds K more 1500 packet/s streams through the same bridge (between extra hosts), the
-kind of load a farm with K ViSC turbines puts on the switch process. ``--idle-ports N`` adds N hosts
-that send nothing (the farm's ovs-vswitchd has ~110 ports: does its size alone slow a repair?).
+kind of load a farm with K ViSC turbines puts on the switch process.
 Prints one JSON object (p50/p95/max per measurement, the machine, the datapath).
 """
 
@@ -91,14 +90,14 @@ def stats(values: list[float]) -> dict:
 PORT_TYPES = SWITCH_PORT_TYPES
 
 
-def measure(repeat: int = 20, load: int = 0, port_type: str = "system", idle_ports: int = 0) -> dict:
+def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
     """Open vSwitch's own flow-mod and fast-failover times on this machine (see the module docstring)."""
     if port_type not in PORT_TYPES:
         raise ValueError(f"port type must be one of {PORT_TYPES}")
     cleanup.clean()
     net = Mininet(switch=TestbedSwitch, controller=None, autoSetMacs=True, build=False)
     s1 = net.addSwitch("s1")
-    hosts = [net.addHost(f"h{k}") for k in range(1, 4 + 2 * load + idle_ports)]
+    hosts = [net.addHost(f"h{k}") for k in range(1, 4 + 2 * load)]
     for h in hosts:
         net.addLink(h, s1)
     procs = []
@@ -146,8 +145,7 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system", idle_por
         result = {"benchmark": "ovs_latency", "machine": platform.platform(), "cpus": len(__import__("os").sched_getaffinity(0)),
                   "datapath": default_datapath(), "ovs": subprocess.run(["ovs-vswitchd", "--version"], capture_output=True,
                                                                          text=True).stdout.splitlines()[0],
-                  "port_type": port_type, "stream_pps": 1500, "extra_streams": load, "idle_ports": idle_ports,
-                  "repeat": repeat,
+                  "port_type": port_type, "stream_pps": 1500, "extra_streams": load, "repeat": repeat,
                   "flow_mod_ms": stats(flow_mod), "ff_port_down_ms": stats(ff),
                   "ovs_vswitchd_cpu_s": round(ovs_cpu_s() - cpu_before, 3),
                   "ovs_vswitchd_cpu_note": "CPU of ovs-vswitchd over the whole measurement (both parts)"}
@@ -172,9 +170,8 @@ def main() -> None:
     ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
     ap.add_argument("--port-type", choices=PORT_TYPES, default="system",
                     help="the switch side of the veths: system (Mininet's default) or AF_XDP")
-    ap.add_argument("--idle-ports", type=int, default=0, help="extra hosts on the bridge that send nothing")
     args = ap.parse_args()
-    print(json.dumps(measure(args.repeat, args.load, args.port_type, args.idle_ports), indent=1))
+    print(json.dumps(measure(args.repeat, args.load, args.port_type), indent=1))
 
 
 if __name__ == "__main__":
