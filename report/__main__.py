@@ -13,6 +13,7 @@ from report import network_runs
 from report.catalogue import EXPERIMENTS, QUICK_NETWORK
 from report.registry import Context, Experiment, NotRun, select
 from report.run import run_report
+from scenarios.switch_ports import SWITCH_PORT_TYPES
 
 DEFAULT_OUT = Path("results/report")
 
@@ -23,7 +24,7 @@ def parse(argv: list[str]) -> argparse.Namespace:
     ap.add_argument("--only", default=None, metavar="IDS",
                     help="comma-separated experiments, e.g. F4,C2 (known: " + ",".join(e.id for e in EXPERIMENTS) + ")")
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"output directory (default {DEFAULT_OUT}/)")
-    ap.add_argument("--switch-ports", choices=("system", "afxdp", "afxdp-nonpmd"), default="afxdp",
+    ap.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default="afxdp",
                     help="the switch side of every link in the network runs (default afxdp: hops ~10x cheaper "
                          "than system ports, one core spun by Open vSwitch during each run; falls back to system "
                          "where AF_XDP is refused; docs/report.md, Time)")

@@ -18,6 +18,7 @@ import numpy as np
 import yaml
 
 from report.registry import LOCK_WAIT_KEY, RERUN_KEY, Context, NotRun
+from scenarios.calibrate import CANDIDATES
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER_SCENARIOS = ROOT / "scenarios" / "paper"
@@ -76,7 +77,7 @@ def known_time_scale(data: dict) -> float | None:
     return _chosen_k.get(shape_of(data))
 
 
-LARGEST_CANDIDATE = 64  # the calibration's largest k (scenarios.calibrate.CANDIDATES; --calibrate-from takes no other)
+LARGEST_CANDIDATE = max(CANDIDATES)  # the calibration's largest k (--calibrate-from takes no other)
 _chosen_k: dict[str, float] = {}  # shape -> the k its last run's calibration chose (this report process)
 _chosen_k_near: dict[str, float] = {}  # the same for the coarser key of :func:`neighbourhood_of`
 

@@ -13,8 +13,8 @@ A loss of a ViSC turbine's control packets (the plant's ``ctrl_lost``/``ctrl_res
 ``impair`` just before), else from the loss. A loss still open after ``follow_s`` is reported
 as such. An SDN reaction to a turbine whose control packets the plant never saw stop (its
 acknowledgements went missing, e.g. on a busy machine, and the reroute was hitless) is reported
-``quiet_s`` after the reaction as exactly that, not as a loss. An action after which no turbine lost its control packets within ``quiet_s`` says so;
-a ``visc_on`` is followed until the turbine's first control packet (or its refusal).
+``quiet_s`` after the reaction as exactly that, not as a loss. An action after which no turbine
+lost its control packets within ``quiet_s`` says so; a ``visc_on`` is followed until the turbine's first control packet (or its refusal).
 Also: :func:`event_line` (one event as a line, the CLI's ``events``) and :func:`watch_line` (one
 turbine's live numbers, the CLI's ``watch``).
 """
