@@ -27,18 +27,25 @@ def one_way_p50(summary: dict) -> tuple[float, float]:
     return delays["meas_to_sdc"]["p50"], delays["ctrl_to_turbine"]["p50"]
 
 
+HEADROOM = ("--time-scale", "4")
+"""The element is one more forwarding hop (a process and a second veth pair) that a loaded 2-core
+machine can make ~1 ms slower in wall time (CI, 88991e7: +0.52 ms at k = 2); at k = 4 that is
+0.25 ms of simulated time, so the asserted rise is the configured delay's."""
+
+
 def test_delay_and_loss_on_the_path(tmp_path):
-    plain = run_scenario(scenario(tmp_path, "plain", []), tmp_path / "plain")
+    plain = run_scenario(scenario(tmp_path, "plain", []), tmp_path / "plain", *HEADROOM)
     impaired = run_scenario(scenario(tmp_path, "impaired", [{"a": "s1", "b": "s3", "delay_ms": 5.0, "loss": 0.1}]),
-                            tmp_path / "impaired")
+                            tmp_path / "impaired", *HEADROOM)
     assert plain["impairments"] == {"mechanism": None, "links": []}
-    # both directions of the turbine's traffic cross s1-s3: each one-way delay rises by 5 ms
-    for before, after in zip(one_way_p50(plain), one_way_p50(impaired)):
-        assert after - before == pytest.approx(5.0, abs=0.5)
     (link,) = impaired["impairments"]["links"]
     assert link["complete"] and (link["a"], link["b"]) == ("s1", "s3")
     (phase,) = link["phases"]
     assert phase["configured"]["delay_ms"] == 5.0 and phase["added_delay_ms"]["p50"] == pytest.approx(5.0, abs=0.5)
+    # both directions of the turbine's traffic cross s1-s3: each one-way delay rises by the 5 ms
+    # configured, plus what the element itself reports as its own lateness, plus the extra hop
+    for before, after in zip(one_way_p50(plain), one_way_p50(impaired)):
+        assert 5.0 - 0.3 <= after - before <= 5.0 + phase["late_ms"]["p50"] + 0.5
     offered = phase["offered"]
     assert offered >= 2 * 0.9 * 2.0 / impaired["step_s"]  # MEAS and CTRL from t = 1 s
     low, high = binomial_interval(offered, 0.1)
