@@ -8,6 +8,10 @@ the end (/proc utime + stime; start-up compiles left out): the plant, each SDC, 
 the OWFCC and ovs-vswitchd (all switches). Per sample = per plant step. Needs root.
 
     python benchmarks/cpu_budget.py [--turbines 1,4,16] [--duration 10] [--time-scale 4] [--plant full]
+                                    [--switch-ports system|afxdp|afxdp-nonpmd]
+
+``total_us`` adds ovs-vswitchd: at time scale 1 the machine holds the run only while it is below
+``cpus`` × Ts (``fits_cores`` = total / Ts, the cores the run needs at k = 1).
 """
 
 from __future__ import annotations
@@ -21,6 +25,9 @@ import time
 from pathlib import Path
 
 from scenario_runs import machine, run_dict  # benchmarks/scenario_runs.py
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+from scenarios.switch_ports import SWITCH_PORT_TYPES  # noqa: E402
 
 ROOT = Path(__file__).resolve().parent.parent
 GOALS_US = {"sdc_fixed_per_round": 50.0, "plant_step_remote": 30.0, "chain_outside_switches": 100.0}
@@ -40,6 +47,7 @@ def main() -> int:
     ap.add_argument("--duration", type=float, default=10.0)
     ap.add_argument("--time-scale", type=float, default=4.0)
     ap.add_argument("--plant", choices=["full", "minimal"], default="full")
+    ap.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default="system")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
     if os.geteuid() != 0:
@@ -47,16 +55,20 @@ def main() -> int:
     work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-cpu-"))
     work.mkdir(parents=True, exist_ok=True)
     result: dict = {"benchmark": "cpu_budget", "plant": args.plant, "time_scale": args.time_scale,
-                    "duration_s": args.duration, "cpus": os.cpu_count(), "load_before": os.getloadavg(),
+                    "duration_s": args.duration, "switch_ports": args.switch_ports, "cpus": os.cpu_count(), "load_before": os.getloadavg(),
                     "goals_us": GOALS_US, "cases": {}}
     started = time.time()
     for n in (int(x) for x in args.turbines.split(",")):
-        s = run_dict(scenario(n, args.duration, args.time_scale, args.plant), work)
+        s = run_dict(scenario(n, args.duration, args.time_scale, args.plant), work,
+                     "--switch-ports", args.switch_ports)
         cpu = s.get("cpu", {})
         per = {name: v["us_per_step"] for name, v in cpu.items()}
         chain = sum(v for name, v in per.items() if name != "ovs-vswitchd")
+        total = chain + per.get("ovs-vswitchd", 0.0)
+        step_us = s["step_s"] * 1e6
         result["cases"][f"{n}_visc"] = {
             "us_per_sample": per, "chain_outside_switches_us": round(chain, 2),
+            "total_us": round(total, 2), "cores_needed_at_k1": round(total / step_us, 2),
             "late_steps": s["late_steps"], "steps": s["steps"],
             "ctrl_delivered": {wt: round(t["packets"]["ctrl_rx"] / max(1, t["packets"]["meas_tx"]), 4)
                                for wt, t in s["turbines"].items()}}

@@ -67,6 +67,8 @@ class Endpoint:
     last_ak_sent: int = -1
     loss_reported: bool = False  # an AK has said that the current loss lasted report_loss_after_s
     ctrl_gaps: list = field(default_factory=list)
+    ctrl_own_seq: int = -1  # the newest CTRL's own seq (the SDC instance's counter)
+    ctrl_resumed: list = field(default_factory=list)  # [send time, CTRL lost before it]: where a loss ended
     last_v_ref: complex | None = None
     last_delta: float = float("nan")  # the newest applied CTRL's virtual rotor angle (rad) and
     last_e_mag: float = float("nan")  # internal EMF magnitude (p.u.), for timeseries.csv
@@ -182,12 +184,17 @@ class PlantService:
         ep.last_ctrl_rx_t = t_sim
         if ep.first_ctrl_rx_t is None:
             ep.first_ctrl_rx_t = t_sim
+        own_seq = msg["seq"]
         if msg.header is not None:
-            delay_ms = (now - (msg.header.sec + msg.header.nsec * 1e-9)) * 1e3
+            sent = msg.header.sec + msg.header.nsec * 1e-9
+            if 0 <= ep.ctrl_own_seq < own_seq - 1 and len(ep.ctrl_resumed) < MAX_CTRL_GAPS:
+                ep.ctrl_resumed.append([round(sent, 6), own_seq - ep.ctrl_own_seq - 1])  # the SDC sent, the path lost
+            delay_ms = (now - sent) * 1e3
             ep.live_delay[0] += delay_ms
             ep.live_delay[1] += 1
             if len(ep.ctrl_delays_ms) < 200_000:
                 ep.ctrl_delays_ms.append(delay_ms)
+        ep.ctrl_own_seq = own_seq
 
     def _on_request(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
         """Carry out a STREAM_START/STREAM_STOP that :func:`plant.endpoint_rx.receive` accepted."""
@@ -326,7 +333,8 @@ class PlantService:
             "turbines": {
                 ep.name: {**ep.counts, "first_meas_tx_t": ep.first_meas_tx_t, "first_ctrl_rx_t": ep.first_ctrl_rx_t,
                           "last_ctrl_rx_t": ep.last_ctrl_rx_t, "ak_ones": ep.ak_ones,
-                          "ctrl_gaps_wall": ep.ctrl_gaps, "takeover_jump_pu": ep.takeover_jump,
+                          "ctrl_gaps_wall": ep.ctrl_gaps, "ctrl_resumed": ep.ctrl_resumed,
+                          "takeover_jump_pu": ep.takeover_jump,
                           "last_ctrl_wall": ep.last_ctrl_wall if ep.last_ctrl_wall > float("-inf") else None,
                           "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms),
                           "rtt_samples": {**{str(n + 1): c for n, c in enumerate(ep.rtt_samples[:-1]) if c},

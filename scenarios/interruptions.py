@@ -18,6 +18,20 @@ control if the record does not say):
 * ``restored_ms``: fault → the first control packet after that pause (packets already in flight
   at the fault do not count as restoration; at most ``2·Ts`` when there was no pause);
 * ``recovered``: False when control stopped for good within the window (the run's end excepted).
+
+And what the network itself needed, free of the endpoints' own delays: each datagram carries its
+send time (header) and a sequence number, so where MEAS were lost on the way to the SDC (its
+``meas_resumed``) or CTRL on the way back (the plant's ``ctrl_resumed``), the first datagram that
+got through again was sent when the path could deliver once more:
+
+* ``meas_path_ms`` / ``ctrl_path_ms``: fault → the send time of the first MEAS (CTRL) that arrived
+  after those the fault lost, within the same chain of losses as above (``STEADY_S``); an upper
+  bound of the path's repair, to one sample. ``None``: that direction lost nothing (a CTRL is only
+  sent for a MEAS that arrived, so a CTRL loss is counted only while MEAS got through);
+* ``path_restored_ms``: the larger of the two — when both directions delivered again. For a
+  fast-failover repair this is Open vSwitch's own repair on the run's topology under the run's load
+  (no application acts); ``interruption_ms`` minus it is what the plant's and the SDC's pacing and
+  the round trip added.
 """
 
 from __future__ import annotations
@@ -31,10 +45,11 @@ STEADY_S = 0.1  # control without a pause this long (2.5 DR holds) is back for g
 
 
 def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, step_s: float, duration_s: float,
-                  window_s: float = WINDOW_S) -> list[dict]:
+                  window_s: float = WINDOW_S, sdc_turbines: dict | None = None) -> list[dict]:
     """One record per (fault, affected turbine); see the module docstring. ``plant_turbines``: the
     plant's per-turbine stats (``ctrl_gaps_wall`` as [start, end] wall… pairs on the run's clock,
-    ``first_ctrl_rx_t``/``last_ctrl_wall``); ``t0``: the run clock's reading at t = 0."""
+    ``first_ctrl_rx_t``/``last_ctrl_wall``, ``ctrl_resumed``); ``t0``: the run clock's reading at
+    t = 0; ``sdc_turbines``: per turbine, every SDC's ``meas_resumed`` lists joined."""
     if t0 is None:
         return []
     out = []
@@ -54,6 +69,8 @@ def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, st
             stopped = last_t is not None and last_t < end and last_t < duration_s - 2 * GAP_MIN_STEPS * step_s
             around = _of_the_fault(sorted((a, b) for a, b in gaps if b > t_f and a < end), t_f)
             longest = max(around, key=lambda g: g[1] - g[0], default=None)
+            meas_ms = path_repair_ms((sdc_turbines or {}).get(wt, []), t0, t_f, end, step_s)
+            ctrl_ms = path_repair_ms(stats.get("ctrl_resumed", []), t0, t_f, end, step_s)
             out.append({
                 "wt": wt, "fault": fault.get("type"), "t_fault": round(t_f, 6),
                 "link": [fault["a"], fault["b"]] if "a" in fault else None,
@@ -62,8 +79,24 @@ def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, st
                 "restored_ms": None if stopped else (round((longest[1] - t_f) * 1e3, 3) if longest else bound_ms),
                 "recovered": not stopped,
                 "t_loss": round(longest[0], 6) if longest else (round(last_t, 6) if stopped else None),
+                "meas_path_ms": meas_ms, "ctrl_path_ms": ctrl_ms,
+                "path_restored_ms": max((v for v in (meas_ms, ctrl_ms) if v is not None), default=None),
             })
     return out
+
+
+def path_repair_ms(resumed: list, t0: float, t_f: float, end: float, step_s: float) -> float | None:
+    """Fault at ``t_f`` → the send time of the first datagram through after the losses it caused
+    (``resumed``: [send time on the run clock, datagrams lost before it]); the losses chained as in
+    :func:`_of_the_fault`; None if the fault lost nothing in this direction."""
+    steady_from, last = t_f, None
+    for sent, lost in sorted((sent - t0, lost) for sent, lost in resumed):
+        if sent <= t_f or sent >= end:
+            continue
+        if sent - lost * step_s > steady_from + STEADY_S:  # this loss began after control was back for good
+            break
+        last = steady_from = sent
+    return round((last - t_f) * 1e3, 3) if last is not None else None
 
 
 def _of_the_fault(pauses: list[tuple[float, float]], t_f: float) -> list[tuple[float, float]]:
@@ -92,10 +125,15 @@ def aggregate(records: list[dict], step_s: float) -> dict:
     with no interruption above 2·Ts, and the unrecovered count."""
     values = [r["interruption_ms"] if r["interruption_ms"] is not None else 2 * step_s * 1e3
               for r in records if r["recovered"]]
+    paths = [r.get("path_restored_ms") or step_s * 1e3 for r in records if r["recovered"] and "path_restored_ms" in r]
     out = {"faults": len(records), "no_interruption_above_2ts": sum(not r["above_2ts"] for r in records),
            "unrecovered": sum(not r["recovered"] for r in records)}
     if values:
         a = np.asarray(values)
         out.update(p50=round(float(np.percentile(a, 50)), 3), p95=round(float(np.percentile(a, 95)), 3),
                    max=round(float(a.max()), 3))
+    if paths:  # what the network needed (nothing lost: one sample, an upper bound)
+        b = np.asarray(paths)
+        out["path_restored_ms"] = {"p50": round(float(np.percentile(b, 50)), 3),
+                                   "p95": round(float(np.percentile(b, 95)), 3), "max": round(float(b.max()), 3)}
     return out

@@ -67,6 +67,7 @@ class Run:
         self.wall_started: float | None = None
         self.wall_ended: float | None = None
         self.cpu_at_start: dict[str, float] = {}
+        self.cpu_at_controllers_stop: dict[str, float] = {}
         self.cpu_used: dict[str, float] = {}
         self.desc: dict | None = None
         self.python = sys.executable
@@ -250,6 +251,7 @@ class Run:
         self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
         self.wall_started = self.clock.to_wall(self.t0)
         self.cpu_at_start: dict[str, float] = {}
+        self.cpu_at_controllers_stop: dict[str, float] = {}
 
     def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
         """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
@@ -299,6 +301,8 @@ class Run:
             if not self.cpu_at_start and now >= self.t0:
                 self.cpu_at_start = self.processes.cpu_seconds()  # from t = 0: start-up compiles left out
             if now >= end or (self.session is not None and self.session.ending(now - self.t0)):
+                if not self.processes.controllers_stopping:  # their CPU up to here: they are gone at the end
+                    self.cpu_at_controllers_stop = self.processes.cpu_seconds()
                 self.processes.stop_controllers()  # the scenario is over: no decisions on the plant's last packets
             self.processes.supervise(round(now - self.t0, 6))
             while pending and now >= self.t0 + pending[0].t:
@@ -312,8 +316,8 @@ class Run:
         if plant.returncode != 0:
             raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
         self.wall_ended = time.time()
-        self.cpu_used = {n: round(c - self.cpu_at_start[n], 4) for n, c in self.processes.cpu_seconds().items()
-                         if n in self.cpu_at_start}
+        cpu_at_end = {**self.cpu_at_controllers_stop, **self.processes.cpu_seconds()}
+        self.cpu_used = {n: round(c - self.cpu_at_start[n], 4) for n, c in cpu_at_end.items() if n in self.cpu_at_start}
         if self.session is None:
             self._progress(tty, final=True)
         self.finished.set()

@@ -199,6 +199,15 @@ def round_trip(histogram: dict | None) -> dict | None:
             "median": median}
 
 
+def meas_resumed(sdcs: dict) -> dict[str, list]:
+    """Per turbine, where its MEAS got through again after a loss, from every SDC's statistics."""
+    out: dict[str, list] = {}
+    for stats in sdcs.values():
+        for wt, row in stats.get("turbines", {}).items():
+            out.setdefault(wt, []).extend(row.get("meas_resumed", []))
+    return out
+
+
 def cpu_section(run, steps: int, plant_cpu_s: float | None = None) -> dict:
     """CPU seconds each process used from t = 0 to the end (/proc), and per plant step in µs."""
     used = dict(getattr(run, "cpu_used", {}) or {})
@@ -290,7 +299,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
                                  sc.duration_s, getattr(run, "no_controller", None)),
         "interruptions": interruptions([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
                                        plant.get("turbines", {}), run.t0, sc.step_s,
-                                       sc.duration_s if sc.duration_s is not None else float("inf")),
+                                       sc.duration_s if sc.duration_s is not None else float("inf"),
+                                       sdc_turbines=meas_resumed(sdcs)),
         "restarts": {n: len(r) for n, r in getattr(run, "restarts", {}).items() if r},
         "no_controller": getattr(run, "no_controller", []),
         "rejected": rejections(plant, sdcs, sdn, owfcc),

@@ -13,6 +13,8 @@ from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS
 from sdvisc.wire_batch import decode_batch, float_rows, is_type
 
+MAX_RESUMED = 10_000
+"""Losses of MEAS recorded per turbine (``meas_resumed``: the first MEAS after each, by its send time)."""
 STREAMING_STEPS = 4
 """A turbine whose last measurement (admitted, or tracked by a backup) was read within this many
 sampling periods counts as streaming: its MEAS is expected in every sample."""
@@ -132,6 +134,8 @@ class MeasurementIntake:
                 continue
             if previous >= 0 and seq > previous + 1:
                 inst.counts["meas_lost"] += seq - previous - 1
+                if self.header and len(inst.meas_resumed) < MAX_RESUMED:  # when the path delivered again
+                    inst.meas_resumed.append([round(row[0] + row[1] * 1e-9, 6), seq - previous - 1])
             if self.header and len(inst.meas_delays_ms) < 200_000:
                 inst.meas_delays_ms.append((meas_read[sources[j]] - (row[0] + row[1] * 1e-9)) * 1e3)
             inst.counts["meas_rx"] += 1

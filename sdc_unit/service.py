@@ -80,6 +80,7 @@ class Instance:
     first_meas_rx_t: float | None = None
     last_meas_at: float = float("-inf")  # run clock when its last usable MEAS was read (sdc_unit.gather)
     meas_delays_ms: list = field(default_factory=list)
+    meas_resumed: list = field(default_factory=list)  # [send time, MEAS lost before it]: where a loss ended
 
 
 class SdcService(MeasurementIntake):
@@ -286,7 +287,8 @@ class SdcService(MeasurementIntake):
                          **self.rejected},
             "events": self.events,
             "turbines": {i.name: {**i.counts, "first_meas_rx_t": i.first_meas_rx_t,
-                                  "meas_one_way_ms": delay_summary(i.meas_delays_ms)}
+                                  "meas_one_way_ms": delay_summary(i.meas_delays_ms),
+                                  "meas_resumed": i.meas_resumed}
                          for i in self.instances.values()},
         }
 

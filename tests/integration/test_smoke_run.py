@@ -36,6 +36,11 @@ def test_smoke_scenario_serves_wt1_1_only_after_the_request(tmp_path):
     assert summary["recoveries"] == []
     types = [e["type"] for e in summary["events"]]
     assert "visc_on" in types and "owfcc_reply" in types
+    # CPU from t = 0 of every process of the chain and of the switches (benchmarks/cpu_budget.py's
+    # source): the SDN app's included, though it is stopped before the plant's last step
+    cpu = summary["cpu"]
+    assert {"plant", "sdc1.sdc", "controller", "ovs-vswitchd"} <= set(cpu), cpu
+    assert all(cpu[name]["cpu_s"] > 0 for name in ("plant", "sdc1.sdc", "controller", "ovs-vswitchd")), cpu
     # the capture on sdc1 is the ground truth: nothing between wt1_1 and sdc1 before t = 1 s
     t0 = summary["t0_wall"]
     between = [r for r in read_pcap(tmp_path / "sdvisc-capture-sdc1.pcap")

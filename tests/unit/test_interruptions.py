@@ -39,7 +39,10 @@ def test_no_pause_above_two_samples_is_still_a_fault_counted_as_repaired():
     assert rec["restored_ms"] == pytest.approx(2 * TS * 1e3)  # an upper bound
     agg = aggregate([rec], TS)
     assert agg == {"faults": 1, "no_interruption_above_2ts": 1, "unrecovered": 0,
-                   "p50": pytest.approx(1.34), "p95": pytest.approx(1.34), "max": pytest.approx(1.34)}
+                   "p50": pytest.approx(1.34), "p95": pytest.approx(1.34), "max": pytest.approx(1.34),
+                   "path_restored_ms": {"p50": pytest.approx(0.67), "p95": pytest.approx(0.67),
+                                        "max": pytest.approx(0.67)}}  # nothing lost: one sample, a bound
+    assert rec["meas_path_ms"] is None and rec["ctrl_path_ms"] is None and rec["path_restored_ms"] is None
 
 
 def test_the_longest_pause_before_control_is_back_for_good_and_before_the_next_fault():
@@ -89,3 +92,29 @@ def test_affected_turbines_come_from_the_published_paths():
     assert affected_by_link(None, "s1", "s3") == []
     assert affected_by_kill(state, "sdc2", "sdc") == ["wt2_1"]
     assert affected_by_kill(state, "controller", "controller") == ["wt1_1", "wt2_1"]
+
+
+def test_what_the_network_needed_is_the_first_datagram_through_again_by_its_send_time():
+    # fast failover: MEAS lost from the fault until the group switched (first through sent 9.38 ms
+    # after it), CTRL lost a little longer on the way back (12.06 ms); the turbine saw 13.4 ms
+    stats = {"wt1_1": {**turbine([(2.0008, 2.0142)]), "ctrl_resumed": [[T0 + 2.01306, 2]]}}
+    sdc = {"wt1_1": [[T0 + 0.5, 3], [T0 + 2.01038, 14]]}  # an earlier loss at 0.5 s is not this fault's
+    (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0, sdc_turbines=sdc)
+    assert rec["meas_path_ms"] == pytest.approx(9.38) and rec["ctrl_path_ms"] == pytest.approx(12.06)
+    assert rec["path_restored_ms"] == pytest.approx(12.06)
+    assert rec["interruption_ms"] == pytest.approx(13.4)
+    agg = aggregate([rec], TS)
+    assert agg["path_restored_ms"]["p95"] == pytest.approx(12.06) and agg["p95"] == pytest.approx(13.4)
+
+
+def test_losses_chained_to_the_fault_count_and_a_later_unrelated_one_does_not():
+    # DR (fault effective at 2.001 s): MEAS lost for 45 ms (the hold and the reroute), a second short loss 20 ms
+    # later on the new path (same chain), then one 0.5 s later (a busy machine's, not the fault's)
+    sdc = {"wt1_1": [[T0 + 2.046, 67], [T0 + 2.068, 2], [T0 + 2.6, 3]]}
+    stats = {"wt1_1": turbine([(2.0008, 2.047)])}
+    (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0, sdc_turbines=sdc)
+    assert rec["meas_path_ms"] == pytest.approx(67.0) and rec["ctrl_path_ms"] is None
+    # a loss only after control was back for good is not the fault's at all
+    (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0,
+                           sdc_turbines={"wt1_1": [[T0 + 2.6, 3]]})
+    assert rec["meas_path_ms"] is None

@@ -36,10 +36,11 @@ def endpoint(meas_seq: int = 100, ctrl_seq: int = -1, sdc: str | None = SDC) -> 
     return ep
 
 
-def ctrl(meas_seq: int, v=(1.0, 0.1), i=(0.5, -0.2), wt: int = WID, flags: int = 0, header: bool = True) -> bytes:
-    values = {"wt": wt, "seq": meas_seq, "meas_seq": meas_seq, "v_ref_d": v[0], "v_ref_q": v[1],
+def ctrl(meas_seq: int, v=(1.0, 0.1), i=(0.5, -0.2), wt: int = WID, flags: int = 0, header: bool = True,
+         own_seq: int | None = None, sent: tuple[int, int] = (5, 6)) -> bytes:
+    values = {"wt": wt, "seq": meas_seq if own_seq is None else own_seq, "meas_seq": meas_seq, "v_ref_d": v[0], "v_ref_q": v[1],
               "i_ref_d": i[0], "i_ref_q": i[1], "delta": 0.3, "omega": 1.0, "e_mag": 1.02, "flags": flags}
-    return wire.encode(wire.MsgType.CTRL, values, header=wire.Header(meas_seq & wire.UINT32_MAX, 5, 6)
+    return wire.encode(wire.MsgType.CTRL, values, header=wire.Header(meas_seq & wire.UINT32_MAX, *sent)
                        if header else None)
 
 
@@ -367,3 +368,22 @@ def test_drain_survives_an_exception_from_one_datagram_and_a_socket_error(capsys
     svc._drain(1.002)  # the datagram after the socket error is still read (and accounted)
     assert ep.counts["ctrl_rx"] == 1 and ep.counts["rx_rejected"] == 2
     assert capsys.readouterr().err == ""
+
+
+def test_ctrl_lost_on_the_way_is_recorded_where_the_path_delivered_again():
+    """The CTRL's own seq (the SDC's counter) jumps where the path lost some: the first one through
+    again is recorded with its send time (scenarios.interruptions: what the network needed)."""
+    queue = [(request(wire.Command.STREAM_START), (VIP, wire.PORT_CONTROLLER))]
+    svc = service(queue)
+    svc._drain(1.0)
+    ep = svc.endpoints[0]
+    ep.meas_seq = 20
+    for own, meas, sent in ((1, 1, (2, 0)), (2, 2, (2, 670_000)), (6, 7, (2, 4_020_000)), (7, 8, (2, 4_690_000))):
+        queue.append((ctrl(meas, own_seq=own, sent=sent), (SDC, wire.PORT_SDC)))
+        svc._drain(2.1)
+    assert ep.counts["ctrl_rx"] == 4
+    assert ep.ctrl_resumed == [[pytest.approx(2.00402), 3]]  # 3, 4, 5 lost; 6 sent at 2.00402 s
+    # a lower seq (a backup took over, or the SDC restarted) is a new counter, not a loss
+    queue.append((ctrl(9, own_seq=1, sent=(2, 5_360_000)), (SDC, wire.PORT_SDC)))
+    svc._drain(2.2)
+    assert ep.counts["ctrl_rx"] == 5 and len(ep.ctrl_resumed) == 1

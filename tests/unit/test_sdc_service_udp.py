@@ -74,7 +74,8 @@ def test_service_answers_every_usable_measurement_once(turbine_socket, tmp_path)
             tx.sendto(_meas(102, seq, p=0.3), dst)
         tx.sendto(bytes(nan), dst)  # dropped, counted
         tx.sendto(_meas(101, 2), dst)  # stale: dropped, counted
-        tx.sendto(_meas(101, 6), dst)  # 4 and 5 lost
+        after_loss = _meas(101, 6)
+        tx.sendto(after_loss, dst)  # 4 and 5 lost
         tx.sendto(_meas(103, 1), dst)  # no instance: not answered
         tx.sendto(b"\x00" * 10, dst)  # malformed
         ctrl = _collect(turbine_socket)
@@ -89,6 +90,10 @@ def test_service_answers_every_usable_measurement_once(turbine_socket, tmp_path)
     assert by_wt == {101: [1, 2, 3, 6], 102: [1, 2, 3]}
     c101 = svc.instances[101].counts
     assert (c101["meas_rx"], c101["ctrl_tx"], c101["meas_stale"], c101["meas_lost"]) == (4, 4, 1, 2)
+    # where the loss ended, by the send time of the first MEAS through again (scenarios.interruptions)
+    sent = wire.decode(after_loss, header=True).header
+    assert svc.instances[101].meas_resumed == [[sent.sec + sent.nsec * 1e-9, 2]]
+    assert svc.instances[102].meas_resumed == []
     assert 103 not in svc.instances and svc.rejected["unserved"] == 1  # never told to serve it: no instance
     assert svc.rx_stats.nonfinite == 1 and svc.rx_stats.length == 1
     # the first answer continues the turbine's operating point: v_ref = v + (r_f + j x_f) i (bumpless start)
