@@ -15,7 +15,9 @@ in order, each with the reason it is counted under (``SdcService.rejected``):
   advances both together (one sample = one ``seq`` = one Ts of ``t_sim``, also across lost
   samples), so a datagram whose ``seq`` or ``t_sim`` was altered is recognised even when it is
   newer. A real jump (the plant restarted, the stream was stopped and started) is accepted once a
-  second datagram confirms it (:class:`SeqGate`): the price is one sample at such a restart.
+  second datagram confirms it (:class:`SeqGate`): the price is one sample at such a restart. Late
+  datagrams of the stream itself (``seq`` and ``t_sim`` on its line, behind it) are ``stale``, however
+  many come in a row: they never confirm a restart.
   Without this check one datagram with ``seq = 2**31 - 1`` would make every later genuine sample
   "stale" and silently end the turbine's control.
 
@@ -134,9 +136,13 @@ class SeqGate:
         if cand is not None and cand[0] < seq <= cand[0] + CONFIRM_WINDOW and self._consistent(seq, t_sim, cand):
             self._accept(seq, t_sim)  # a second datagram confirms the jump: the stream restarted
             return None
+        if seq <= self.last_seq and self._consistent(seq, t_sim, (self.last_seq, self.last_t)):
+            # a late or repeated datagram of this very stream, never evidence of a restart: a burst of
+            # them (a failed port's queue released when the link came back, 300 ms old on AF_XDP
+            # ports) was taken for a restarted stream and stepped the controllers back in time
+            return "stale"
         self.candidate = (seq, t_sim)
-        return "stale" if seq <= self.last_seq and self._consistent(seq, t_sim, (self.last_seq, self.last_t)) \
-            else "inconsistent"
+        return "inconsistent"
 
     def _accept(self, seq: int, t_sim: float) -> None:
         self.last_seq, self.last_t, self.candidate = seq, t_sim, None
