@@ -145,6 +145,52 @@ def test_a_killed_sdc_is_still_detected_and_failed_over_quickly():
     assert detected is not None and detected - t_kill <= 0.045 and ctl.active_sdc == "sdc2"
 
 
+def _kill_with_late_heartbeats(ctl, last_hb: float, until: float, sdc1_resumes: float | None = None) -> list[dict]:
+    """From 1.0 s the turbine receives no control packets (its AK = 0 every 10 ms, then its report at
+    the hold); sdc1's heartbeats stop after ``last_hb`` (or pause until ``sdc1_resumes``); sdc2's go on."""
+    for k in range(1, 100):
+        _hb(ctl, "sdc1", k, 0.01 * k)
+        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
+    _visc_on(ctl, now=0.5)
+    for k in range(1, 50):
+        _ak(ctl, "wt1_1", k, 1, 0.0, 0.5 + 0.01 * k)
+    ctl.take_events()
+    t_loss, events, seq1 = 1.0, [], 100
+    for step in range(1, int((until - t_loss) / TICK)):
+        now = round(t_loss + step * TICK, 6)
+        if step % 5 == 0:
+            _hb(ctl, "sdc2", 100 + step, now + 0.001)
+            if now <= last_hb or (sdc1_resumes is not None and now >= sdc1_resumes):
+                seq1 += 1
+                _hb(ctl, "sdc1", seq1, now + 0.0005)
+            _ak(ctl, "wt1_1", 50 + step, 0, now - t_loss, now)
+        ctl.tick(now)
+        events += ctl.take_events()
+    return events
+
+
+def test_a_loss_while_the_sdcs_heartbeats_are_overdue_waits_for_its_verdict_and_fails_over():
+    # seen at time scale 1: the killed SDC's heartbeat thread ran on for 13 ms after its control
+    # stopped; the turbine's report at the 40 ms hold came while the SDC was overdue but not yet
+    # silent, and the app rerouted to the dead SDC first (failover 100-190 ms after the kill)
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    events = _kill_with_late_heartbeats(ctl, last_hb=1.013, until=1.1)  # (the backup's control is not modelled)
+    kinds = [e["type"] for e in events]
+    assert "dr" not in kinds and kinds.count("dr_awaiting_sdc") == 1 and ctl.active_sdc == "sdc2"
+    failover = next(e for e in events if e["type"] == "sdc_failover")
+    assert failover["t_wall"] - 1.0 <= 0.040 + 0.030  # within the hold and sdc_dead_s of the loss
+
+
+def test_a_late_heartbeat_lets_the_waiting_dr_go_ahead():
+    # the path failed while sdc1's heartbeats were late; sdc1 lives: the DR goes ahead, no failover
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    events = _kill_with_late_heartbeats(ctl, last_hb=1.013, until=1.2, sdc1_resumes=1.035)
+    kinds = [e["type"] for e in events]
+    assert "sdc_failover" not in kinds and "sdc_dead" not in kinds and ctl.active_sdc == "sdc1"
+    dr = next(e for e in events if e["type"] == "dr")
+    assert 1.040 <= dr["t_wall"] <= 1.040 + 0.030
+
+
 def test_a_partition_is_reported_once_and_healed_when_a_link_returns():
     ctl = Controller(make_config(backup_sdc=None), now=0.0)
     _visc_on(ctl, now=1.0)
