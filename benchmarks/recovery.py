@@ -9,7 +9,7 @@ master SDN app (scenarios/controller_failover.yaml). Every fault is measured the
 turbine, whatever reacted (summary.json → ``interruptions``, scenarios/interruptions.py): the longest
 pause of its control packets around the fault, with no threshold below which a repair disappears.
 Per mechanism: percentiles over *all* faults, the count with no interruption above 2·Ts, the
-unrecovered count; also the old ``recovery_ms`` (fault → first control packet after a pause that the
+unrecovered count; what the failed links' returns did, apart (``link_return_interruption_ms``); also the old ``recovery_ms`` (fault → first control packet after a pause that the
 summary lists as a recovery).
 
 The floor (benchmarks/ovs_latency.py, same machine, same run): Open vSwitch's fast-failover bucket
@@ -218,6 +218,7 @@ def main(argv: list[str] | None = None) -> int:
                     "units": "ms (simulated ms at a time scale above 1; the floor is wall ms)", "floor": floor,
                     "runs": {}}
     records: dict[str, list[dict]] = {m: [] for m in MECHANISMS}
+    restore_records: dict[str, list[dict]] = {m: [] for m in MECHANISMS}  # what each link's return did
     by_topology: dict[str, dict] = {}
     recovery_ms: dict[str, list[float]] = {m: [] for m in MECHANISMS}
     detect: dict[str, list[float]] = {"dr": [], "sdc_failover": []}
@@ -229,6 +230,7 @@ def main(argv: list[str] | None = None) -> int:
             step_s = summary["step_s"]
             recs, inter = summary["recoveries"], summary["interruptions"]
             records[mech] += inter
+            restore_records[mech] += summary.get("restore_interruptions", [])
             recovery_ms[mech] += [r["recovery_ms"] for r in recs if r["recovery_ms"] is not None]
             detect["dr"] += [r["detect_ms"] for r in recs if r["cause"] == "dr" and r["detect_ms"] is not None]
             by_topology.setdefault(topo_name, {})[mech] = {**aggregate(inter, step_s),
@@ -249,7 +251,8 @@ def main(argv: list[str] | None = None) -> int:
         summary = run_file(ROOT / "scenarios" / "controller_failover.yaml", work / f"controller_failover_{i}", *scale)
         controller_records += summary["interruptions"]
     for mech in MECHANISMS:
-        result[mech] = {"interruption_ms": aggregate(records[mech], step_s), "recovery_ms": percentiles(recovery_ms[mech])}
+        result[mech] = {"interruption_ms": aggregate(records[mech], step_s), "recovery_ms": percentiles(recovery_ms[mech]),
+                        "link_return_interruption_ms": aggregate(restore_records[mech], step_s)}
     result["dr_p95_ms"] = result["dr"]["interruption_ms"].get("p95")
     result["port_status_p95_ms"] = result["port_status"]["interruption_ms"].get("p95")
     result["ff_p95_ms"] = result["ff"]["interruption_ms"].get("p95")

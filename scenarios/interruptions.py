@@ -40,21 +40,28 @@ import numpy as np
 
 from plant.service import CTRL_GAP_STEPS as GAP_MIN_STEPS  # the plant records pauses longer than this (steps)
 
+FAULT_TYPES = ("link_down", "kill")
+RESTORE_TYPES = ("link_up", "restore_links")
+"""Timeline events that end a fault: measured as well (``restore_interruptions``: a link's return can
+interrupt control too, e.g. while the L2 switch relearns), never counted as the fault's."""
 WINDOW_S = 1.0
 STEADY_S = 0.1  # control without a pause this long (2.5 DR holds) is back for good
 
 
 def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, step_s: float, duration_s: float,
-                  window_s: float = WINDOW_S, sdc_turbines: dict | None = None) -> list[dict]:
+                  window_s: float = WINDOW_S, sdc_turbines: dict | None = None,
+                  boundaries: list[float] = ()) -> list[dict]:
     """One record per (fault, affected turbine); see the module docstring. ``plant_turbines``: the
     plant's per-turbine stats (``ctrl_gaps_wall`` as [start, end] wall… pairs on the run's clock,
     ``first_ctrl_rx_t``/``last_ctrl_wall``, ``ctrl_resumed``); ``t0``: the run clock's reading at
-    t = 0; ``sdc_turbines``: per turbine, every SDC's ``meas_resumed`` lists joined."""
+    t = 0; ``sdc_turbines``: per turbine, every SDC's ``meas_resumed`` lists joined; ``boundaries``: times of
+    other events that end a fault's window as the next fault does (a failed link restored: what its
+    return does is the restore's, :data:`RESTORE_TYPES`)."""
     if t0 is None:
         return []
     out = []
     bound_ms = round(2 * step_s * 1e3, 3)
-    times = sorted(f.get("t_effective", f["t"]) for f in faults)
+    times = sorted([f.get("t_effective", f["t"]) for f in faults] + list(boundaries))
     for fault in faults:
         t_f = fault.get("t_effective", fault["t"])
         later = [t for t in times if t > t_f]

@@ -17,7 +17,7 @@ import time
 from pathlib import Path
 
 from scenarios.impairments import summary_section as impairments_section
-from scenarios.interruptions import interruptions
+from scenarios.interruptions import FAULT_TYPES, RESTORE_TYPES, interruptions
 
 SUMMARY_VERSION = 1
 
@@ -61,7 +61,6 @@ def _wall_to_t(events: list[dict], t0: float | None, source: str) -> list[dict]:
     return out
 
 
-FAULT_TYPES = ("link_down", "kill")
 DETECT_TYPES = ("dr", "port_status", "sdc_failover", "no_path", "path_restored")
 GAP_MATCH_S = 0.010
 MIN_INTERRUPTION_S = 0.020  # shorter gaps without an SDN reaction are jitter, not a fault's effect  # a control-packet gap belongs to a fault if it starts at most this long after it
@@ -234,6 +233,9 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     for name, sdc in sdcs.items():
         events += _wall_to_t(sdc.get("events", []), run.t0, name)
     events.sort(key=lambda e: e.get("t", -1e9))
+    faults = [e for e in run.timeline_events if e["type"] in FAULT_TYPES]
+    restores = [e for e in run.timeline_events if e["type"] in RESTORE_TYPES]
+    duration = sc.duration_s if sc.duration_s is not None else float("inf")
     for e in events:  # decisions taken while the run was being stopped (the plant's last packets)
         if e.get("source", "").startswith("sdn_app") and e.get("t", 0) > sc.duration_s:
             e["after_end"] = True
@@ -294,13 +296,15 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,
-        "recoveries": recoveries([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
+        "recoveries": recoveries(faults,
                                  plant.get("turbines", {}), [e for e in events if not e.get("shadow")], run.t0,
                                  sc.duration_s, getattr(run, "no_controller", None)),
-        "interruptions": interruptions([e for e in run.timeline_events if e["type"] in FAULT_TYPES],
-                                       plant.get("turbines", {}), run.t0, sc.step_s,
-                                       sc.duration_s if sc.duration_s is not None else float("inf"),
-                                       sdc_turbines=meas_resumed(sdcs)),
+        "interruptions": interruptions(faults, plant.get("turbines", {}), run.t0, sc.step_s, duration,
+                                       sdc_turbines=meas_resumed(sdcs),
+                                       boundaries=[e.get("t_effective", e["t"]) for e in restores]),
+        "restore_interruptions": interruptions(restores, plant.get("turbines", {}), run.t0, sc.step_s, duration,
+                                               sdc_turbines=meas_resumed(sdcs),
+                                               boundaries=[e.get("t_effective", e["t"]) for e in faults]),
         "restarts": {n: len(r) for n, r in getattr(run, "restarts", {}).items() if r},
         "no_controller": getattr(run, "no_controller", []),
         "rejected": rejections(plant, sdcs, sdn, owfcc),

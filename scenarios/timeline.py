@@ -61,9 +61,10 @@ class Timeline:
                 record["t_effective"] = round(run.set_link(link[0], link[1], False) - run.t0, 6)
         elif kind == "restore_links":
             down = sorted(run.links_down)
-            for a, b in down:
-                run.set_link(a, b, True)
+            times = [run.set_link(a, b, True) for a, b in down]
             record["links"] = down
+            if times:
+                record["t_effective"] = round(times[0] - run.t0, 6)
         elif kind == "kill":
             name = event.process if event.process.startswith("controller") else f"{event.host}.{event.process}"
             record["affected"] = affected_by_kill(run.sdn_state(), event.host, event.process)

@@ -118,3 +118,17 @@ def test_losses_chained_to_the_fault_count_and_a_later_unrelated_one_does_not():
     (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0,
                            sdc_turbines={"wt1_1": [[T0 + 2.6, 3]]})
     assert rec["meas_path_ms"] is None
+
+
+def test_a_links_return_ends_the_faults_window_and_is_measured_as_its_own():
+    # seen at k = 1 on paper (DR): the fault's 44 ms pause, short pauses of a loaded machine, then
+    # 0.3 s later the link came back and the L2 switch's relearning cost 137 ms — once added to the fault
+    stats = {"wt1_1": turbine([(2.0011, 2.045), (2.1, 2.103), (2.19, 2.193), (2.2811, 2.418)])}
+    restore = {"t": 2.28, "t_effective": 2.2805, "type": "restore_links", "links": [["s4", "l2"]]}
+    (rec,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0, boundaries=[2.2805])
+    assert rec["interruption_ms"] == pytest.approx(43.9)
+    (back,) = interruptions([restore], stats, T0, TS, duration_s=10.0, boundaries=[2.001])
+    assert back["fault"] == "restore_links" and back["interruption_ms"] == pytest.approx(136.9)
+    # without the boundary the chain of pauses glues the return's pause onto the fault
+    (glued,) = interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, duration_s=10.0)
+    assert glued["interruption_ms"] == pytest.approx(136.9)
