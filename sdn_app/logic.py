@@ -141,8 +141,14 @@ class Controller:
         not the path, is the likelier cause, and a reroute to it would cure nothing (seen at time
         scale 1: 5 of 20 SDC kills rerouted first and failed over 100–190 ms after the kill). The
         DR waits for the verdict — a heartbeat (the SDC lives: the DR goes ahead) or its death
-        (failover) — at most ``sdc_dead_s`` beyond the turbine's hold."""
-        if not self.guard.liveness.suspected(sdc, now, resumed):
+        (failover) — at most ``sdc_dead_s`` beyond the turbine's hold. Only where a failover can
+        follow, and not while every SDC is overdue at once: that is a stall of the switches (seen
+        when a failed link comes back and Open vSwitch revalidates), not one SDC's death."""
+        live = self.guard.liveness
+        known = live.known()
+        if not self.config.failover or len(known) < 2 or not live.suspected(sdc, now, resumed):
+            return False
+        if all(live.suspected(other, now, resumed) for other in known):
             return False
         since = self.dr.loss_since(name, now, stalled=stalled, resumed=resumed)
         if since is None or now >= since + self.dr.hold_of(name) + self.config.sdc_dead_s:
@@ -151,7 +157,7 @@ class Controller:
             self._held_dr.add((name, since))
             self.counters["dr_awaiting_sdc"] += 1
             self.state.event(now, "dr_awaiting_sdc", wt=name, sdc=sdc, t_loss=since,
-                             silence_ms=round(self.guard.liveness.silence(sdc, now, resumed) * 1e3, 1))
+                             silence_ms=round(live.silence(sdc, now, resumed) * 1e3, 1))
         return True
 
     # ------------------------------------------------------------------ packets

@@ -145,9 +145,11 @@ def test_a_killed_sdc_is_still_detected_and_failed_over_quickly():
     assert detected is not None and detected - t_kill <= 0.045 and ctl.active_sdc == "sdc2"
 
 
-def _kill_with_late_heartbeats(ctl, last_hb: float, until: float, sdc1_resumes: float | None = None) -> list[dict]:
+def _kill_with_late_heartbeats(ctl, last_hb: float, until: float, sdc1_resumes: float | None = None,
+                               sdc2_pauses: tuple[float, float] | None = None) -> list[dict]:
     """From 1.0 s the turbine receives no control packets (its AK = 0 every 10 ms, then its report at
-    the hold); sdc1's heartbeats stop after ``last_hb`` (or pause until ``sdc1_resumes``); sdc2's go on."""
+    the hold); sdc1's heartbeats stop after ``last_hb`` (or pause until ``sdc1_resumes``); sdc2's go
+    on (but for ``sdc2_pauses``)."""
     for k in range(1, 100):
         _hb(ctl, "sdc1", k, 0.01 * k)
         _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
@@ -159,7 +161,8 @@ def _kill_with_late_heartbeats(ctl, last_hb: float, until: float, sdc1_resumes: 
     for step in range(1, int((until - t_loss) / TICK)):
         now = round(t_loss + step * TICK, 6)
         if step % 5 == 0:
-            _hb(ctl, "sdc2", 100 + step, now + 0.001)
+            if sdc2_pauses is None or not sdc2_pauses[0] < now < sdc2_pauses[1]:
+                _hb(ctl, "sdc2", 100 + step, now + 0.001)
             if now <= last_hb or (sdc1_resumes is not None and now >= sdc1_resumes):
                 seq1 += 1
                 _hb(ctl, "sdc1", seq1, now + 0.0005)
@@ -189,6 +192,17 @@ def test_a_late_heartbeat_lets_the_waiting_dr_go_ahead():
     assert "sdc_failover" not in kinds and "sdc_dead" not in kinds and ctl.active_sdc == "sdc1"
     dr = next(e for e in events if e["type"] == "dr")
     assert 1.040 <= dr["t_wall"] <= 1.040 + 0.030
+
+
+def test_when_every_sdc_is_overdue_at_once_the_dr_does_not_wait():
+    # a stall of the switches delays every heartbeat alike (seen when a failed link came back): the
+    # turbine's loss is the path's, its DR goes ahead at the hold
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    events = _kill_with_late_heartbeats(ctl, last_hb=1.013, until=1.1, sdc1_resumes=1.06, sdc2_pauses=(1.013, 1.06))
+    kinds = [e["type"] for e in events]
+    assert "dr_awaiting_sdc" not in kinds and "sdc_failover" not in kinds
+    dr = next(e for e in events if e["type"] == "dr")
+    assert dr["t_wall"] == pytest.approx(1.040, abs=TICK)
 
 
 def test_a_partition_is_reported_once_and_healed_when_a_link_returns():
