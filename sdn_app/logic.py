@@ -142,13 +142,16 @@ class Controller:
         scale 1: 5 of 20 SDC kills rerouted first and failed over 100–190 ms after the kill). The
         DR waits for the verdict — a heartbeat (the SDC lives: the DR goes ahead) or its death
         (failover) — at most ``sdc_dead_s`` beyond the turbine's hold. Only where a failover can
-        follow, and not while every SDC is overdue at once: that is a stall of the switches (seen
-        when a failed link comes back and Open vSwitch revalidates), not one SDC's death."""
+        follow, and only while this SDC is silent a heartbeat period longer than every other one: a
+        stall of the switches delays every heartbeat alike (seen when a failed link comes back and
+        Open vSwitch revalidates; under load at a kill the backup's heartbeats are late too, so
+        "every SDC overdue" cannot tell the two apart)."""
         live = self.guard.liveness
         known = live.known()
         if not self.config.failover or len(known) < 2 or not live.suspected(sdc, now, resumed):
             return False
-        if all(live.suspected(other, now, resumed) for other in known):
+        others = min(live.silence(other, now, resumed) for other in known if other != sdc)
+        if live.silence(sdc, now, resumed) < others + live.period_s:
             return False
         since = self.dr.loss_since(name, now, stalled=stalled, resumed=resumed)
         if since is None or now >= since + self.dr.hold_of(name) + self.config.sdc_dead_s:

@@ -194,6 +194,15 @@ def test_a_late_heartbeat_lets_the_waiting_dr_go_ahead():
     assert 1.040 <= dr["t_wall"] <= 1.040 + 0.030
 
 
+def test_a_kill_under_load_still_waits_though_the_backups_heartbeats_are_late_too():
+    # seen at k = 1 with 130 late plant steps: the backup's heartbeats were overdue as well when the
+    # killed SDC's loss reached the hold; the killed one's silence is still much the longer
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    events = _kill_with_late_heartbeats(ctl, last_hb=1.0, until=1.1, sdc2_pauses=(1.02, 1.045))
+    kinds = [e["type"] for e in events]
+    assert "dr" not in kinds and "dr_awaiting_sdc" in kinds and ctl.active_sdc == "sdc2"
+
+
 def test_when_every_sdc_is_overdue_at_once_the_dr_does_not_wait():
     # a stall of the switches delays every heartbeat alike (seen when a failed link came back): the
     # turbine's loss is the path's, its DR goes ahead at the hold
