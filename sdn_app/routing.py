@@ -42,6 +42,14 @@ class Routing:
             hops(st.graph, active.path), st.dpids, st.addr(active.sdc), wt_ip,
             st.addr(st.config.primary_sdc), active.cookie))
 
+    def addressed_sdc(self) -> str:
+        """The SDC whose address every turbine's packets carry: the primary's, also while a
+        substitute serves it (its switch rewrites them). An L2 switch must learn *this* MAC on the
+        path's uplink: after a failover it was taught the backup's, which no turbine sends to, and
+        a turbine whose path a DR had moved to the other uplink stayed without control until the
+        next DR re-engaged it (seen at k = 1: 100–190 ms after an SDC kill)."""
+        return self.state.config.primary_sdc
+
     def _next_group_id(self, dpid: int) -> int:
         self.group_ids[dpid] = self.group_ids.get(dpid, 0) + 1
         return self.group_ids[dpid]
@@ -131,7 +139,8 @@ class Routing:
         changed = sorted({f.dpid for f in flows if isinstance(f, (fl.FlowAdd, fl.GroupAdd))})
         active.unacknowledged = set(changed)
         barriers = [fl.Barrier(dpid, path_tag(name, version)) for dpid in changed]
-        actions = flows + barriers + self.messenger.learn_frames(list(reversed(path)) if path[0] == name else path, sdc)
+        actions = flows + barriers + self.messenger.learn_frames(list(reversed(path)) if path[0] == name else path,
+                                                                 self.addressed_sdc())
         if old is not None:
             actions += self._delete(old)
         return actions
@@ -179,6 +188,6 @@ class Routing:
             for z in sorted(st.graph.neighbors(l2)):
                 if z not in st.dpids or link_key(l2, z) in st.down_links:
                     continue
-                actions += self.messenger.learn_frames([z, l2, name], active.sdc)
+                actions += self.messenger.learn_frames([z, l2, name], self.addressed_sdc())
             st.event(now, "ff_relearn", wt=name, l2=l2, link=sorted(key))
         return actions

@@ -203,6 +203,35 @@ def test_a_kill_under_load_still_waits_though_the_backups_heartbeats_are_late_to
     assert "dr" not in kinds and "dr_awaiting_sdc" in kinds and ctl.active_sdc == "sdc2"
 
 
+def test_after_a_failover_the_l2_switch_learns_the_address_the_turbine_sends_to():
+    # the turbine keeps addressing the primary (sdc1); the backup's switch rewrites. The learning
+    # frames of the failover path must teach the L2 switch sdc1's MAC on the path's uplink (they
+    # taught sdc2's: after a DR had moved sdc1's MAC to the other uplink, MEAS went nowhere)
+    from os_ken.lib.packet import ethernet, packet
+
+    ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
+    for k in range(1, 100):
+        _hb(ctl, "sdc1", k, 0.01 * k)
+        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
+    _visc_on(ctl, now=0.5)
+    for k in range(1, 50):
+        _ak(ctl, "wt1_1", k, 1, 0.0, 0.5 + 0.01 * k)
+    actions = []
+    for step in range(1, 50):
+        now = round(1.0 + step * TICK, 6)
+        if step % 5 == 0:
+            _hb(ctl, "sdc2", 100 + step, now + 0.001)
+            actions += _ak(ctl, "wt1_1", 50 + step, 0, now - 1.0, now)
+        actions += ctl.tick(now)
+        if ctl.active_sdc == "sdc2":
+            break
+    assert ctl.active_sdc == "sdc2"
+    learned = {packet.Packet(a.data).get_protocol(ethernet.ethernet).src
+               for a in actions if isinstance(a, fl.PacketOut) and is_learn(a)}
+    hosts = ctl.config.topology.hosts
+    assert hosts["sdc1"].mac in learned and hosts["sdc2"].mac not in learned
+
+
 def test_when_every_sdc_is_overdue_at_once_the_dr_does_not_wait():
     # a stall of the switches delays every heartbeat alike (seen when a failed link came back): the
     # turbine's loss is the path's, its DR goes ahead at the hold
