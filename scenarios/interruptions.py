@@ -73,7 +73,9 @@ def interruptions(faults: list[dict], plant_turbines: dict, t0: float | None, st
             gaps = [(a - t0, b - t0) for a, b in stats.get("ctrl_gaps_wall", [])]
             last = stats.get("last_ctrl_wall")
             last_t = last - t0 if last is not None else None
-            stopped = last_t is not None and last_t < end and last_t < duration_s - 2 * GAP_MIN_STEPS * step_s
+            # the run's last STEADY_S are its end, not a fault's (a loaded machine's last pause came
+            # 3.8 ms before the end of a failover run and was counted as control stopped for good)
+            stopped = last_t is not None and last_t < end and last_t < duration_s - STEADY_S
             around = _of_the_fault(sorted((a, b) for a, b in gaps if b > t_f and a < end), t_f)
             longest = max(around, key=lambda g: g[1] - g[0], default=None)
             meas_ms = path_repair_ms((sdc_turbines or {}).get(wt, []), t0, t_f, end, step_s)

@@ -77,6 +77,15 @@ def test_stopped_for_good_is_unrecovered_but_the_runs_end_is_not_a_fault():
     assert aggregate(list(recs.values()), TS)["unrecovered"] == 1
 
 
+def test_a_last_pause_just_before_the_runs_end_is_not_control_stopped_for_good():
+    # a failover run of 2.5 s: control back 44 ms after the kill, then the loaded machine's last
+    # control packet came 3.8 ms before the end
+    stats = {"wt1_1": turbine([(1.5075, 1.5444)], last=2.4962)}
+    kill = {"t": 1.5, "type": "kill", "host": "sdc1", "process": "sdc", "affected": ["wt1_1"]}
+    (rec,) = interruptions([kill], stats, T0, TS, duration_s=2.5)
+    assert rec["recovered"] and rec["interruption_ms"] == pytest.approx(36.9)
+
+
 def test_only_the_affected_turbines_unless_the_record_does_not_say():
     stats = {"wt1_1": turbine([(2.0011, 2.02)]), "wt1_2": turbine([]), "wt2_1": turbine([], first=None, last=None)}
     assert [r["wt"] for r in interruptions([link_down(2.0, ["wt1_1"])], stats, T0, TS, 10.0)] == ["wt1_1"]
