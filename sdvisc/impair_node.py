@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import ctypes
 import errno
+import json
 import os
 import select
 import signal
@@ -40,6 +41,7 @@ import numpy as np
 from sdvisc.config import ClockSettings, ConfigError, ImpairNodeConfig, load_config
 from sdvisc.impairment import Impairment, Phase, TimedQueue
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
+from sdvisc.latest_writer import LatestWriter
 from sdvisc.netns import raise_priority
 
 ETH_P_ALL = 0x0003
@@ -116,6 +118,7 @@ class Element:
         self.cfg = cfg
         self.clock = cfg.clock()
         self.name = cfg.name
+        self._status_writer: LatestWriter | None = None  # periodic status, off the loop (write_status)
         self.directions = (f"{cfg.a}->{cfg.b}", f"{cfg.b}->{cfg.a}")
         self.impairment = Impairment(cfg.delay_ms, cfg.jitter_ms, cfg.loss, cfg.bw_mbps)
         for ifname in (cfg.intf_a, cfg.intf_b):
@@ -269,7 +272,17 @@ class Element:
                 "phases": [p.report(with_percentiles=final or p.t_to is not None) for p in self.phases]}
 
     def write_status(self, final: bool) -> None:
-        write_json_atomic(status_path(self.cfg.out_dir, self.name), self.status(final))
+        """The periodic status goes to a writer thread: replacing a file on a busy ext4 can take tens
+        of ms, and the element's loop is the link's timing. The final status is written in place,
+        after the last periodic one."""
+        if final:
+            if self._status_writer is not None:
+                self._status_writer.close()
+            write_json_atomic(status_path(self.cfg.out_dir, self.name), self.status(final))
+            return
+        if self._status_writer is None:
+            self._status_writer = LatestWriter(status_path(self.cfg.out_dir, self.name))
+        self._status_writer.put(json.dumps(self.status(final), indent=1, sort_keys=True).encode())
 
 
 def main(argv: list[str] | None = None) -> int:
