@@ -127,10 +127,7 @@ def test_no_false_death_or_dr_when_the_network_only_delays(seed):
 
 def test_a_killed_sdc_is_still_detected_and_failed_over_quickly():
     ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
-    for k in range(1, 100):
-        _hb(ctl, "sdc1", k, 0.01 * k)
-        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
-    _visc_on(ctl, now=0.5)
+    _serving(ctl, acks=False)
     t_kill = 1.0  # sdc1's last heartbeat was at 0.99; the turbine's last control packet at 1.0
     detected = None
     for step in range(1, 100):
@@ -145,17 +142,22 @@ def test_a_killed_sdc_is_still_detected_and_failed_over_quickly():
     assert detected is not None and detected - t_kill <= 0.045 and ctl.active_sdc == "sdc2"
 
 
+def _serving(ctl, acks: bool = True) -> None:
+    """Both SDCs beating every 10 ms until 0.99 s, wt1_1 in ViSC from 0.5 s, its AKs fine until 0.99 s."""
+    for k in range(1, 100):
+        _hb(ctl, "sdc1", k, 0.01 * k)
+        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
+    _visc_on(ctl, now=0.5)
+    for k in range(1, 50) if acks else ():
+        _ak(ctl, "wt1_1", k, 1, 0.0, 0.5 + 0.01 * k)
+
+
 def _kill_with_late_heartbeats(ctl, last_hb: float, until: float, sdc1_resumes: float | None = None,
                                sdc2_pauses: tuple[float, float] | None = None) -> list[dict]:
     """From 1.0 s the turbine receives no control packets (its AK = 0 every 10 ms, then its report at
     the hold); sdc1's heartbeats stop after ``last_hb`` (or pause until ``sdc1_resumes``); sdc2's go
     on (but for ``sdc2_pauses``)."""
-    for k in range(1, 100):
-        _hb(ctl, "sdc1", k, 0.01 * k)
-        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
-    _visc_on(ctl, now=0.5)
-    for k in range(1, 50):
-        _ak(ctl, "wt1_1", k, 1, 0.0, 0.5 + 0.01 * k)
+    _serving(ctl)
     ctl.take_events()
     t_loss, events, seq1 = 1.0, [], 100
     for step in range(1, int((until - t_loss) / TICK)):
@@ -210,12 +212,7 @@ def test_after_a_failover_the_l2_switch_learns_the_address_the_turbine_sends_to(
     from os_ken.lib.packet import ethernet, packet
 
     ctl = Controller(make_config(sdc_dead_s=0.030), now=0.0)
-    for k in range(1, 100):
-        _hb(ctl, "sdc1", k, 0.01 * k)
-        _hb(ctl, "sdc2", k, 0.01 * k + 0.001)
-    _visc_on(ctl, now=0.5)
-    for k in range(1, 50):
-        _ak(ctl, "wt1_1", k, 1, 0.0, 0.5 + 0.01 * k)
+    _serving(ctl)
     actions = []
     for step in range(1, 50):
         now = round(1.0 + step * TICK, 6)
