@@ -92,7 +92,9 @@ def test_forged_aks_from_another_host(tmp_path, topology):
     assert dr_in_first == []
     if topology == "farm":
         assert counters.get("drop_ak_wrong_port", 0) >= 95
-        assert not [e for e in s["events"] if e["type"] == "dr"], "a forged AK caused a DR"
+        # a DR the app decided while the run was being stopped is no forged AK's (`after_end`; seen under
+        # one-core load: a loss 8 ms before the end, the DR 35 ms after it)
+        assert not [e for e in s["events"] if e["type"] == "dr" and not e.get("after_end")], "a forged AK caused a DR"
     assert_no_leftovers()
 
 
