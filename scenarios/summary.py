@@ -236,6 +236,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     faults = [e for e in run.timeline_events if e["type"] in FAULT_TYPES]
     restores = [e for e in run.timeline_events if e["type"] in RESTORE_TYPES]
     duration = sc.duration_s if sc.duration_s is not None else float("inf")
+    resumed = meas_resumed(sdcs)
     for e in events:  # decisions taken while the run was being stopped (the plant's last packets)
         if e.get("source", "").startswith("sdn_app") and e.get("t", 0) > sc.duration_s:
             e["after_end"] = True
@@ -300,10 +301,10 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
                                  plant.get("turbines", {}), [e for e in events if not e.get("shadow")], run.t0,
                                  sc.duration_s, getattr(run, "no_controller", None)),
         "interruptions": interruptions(faults, plant.get("turbines", {}), run.t0, sc.step_s, duration,
-                                       sdc_turbines=meas_resumed(sdcs),
+                                       sdc_turbines=resumed,
                                        boundaries=[e.get("t_effective", e["t"]) for e in restores]),
         "restore_interruptions": interruptions(restores, plant.get("turbines", {}), run.t0, sc.step_s, duration,
-                                               sdc_turbines=meas_resumed(sdcs),
+                                               sdc_turbines=resumed,
                                                boundaries=[e.get("t_effective", e["t"]) for e in faults]),
         "restarts": {n: len(r) for n, r in getattr(run, "restarts", {}).items() if r},
         "no_controller": getattr(run, "no_controller", []),
