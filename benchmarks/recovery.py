@@ -4,7 +4,7 @@ vSwitch's own floor measured in the same run.
 Prints one JSON object. For each (topology, mechanism) run — AK/DR, port status, fast-failover
 groups — ``--failures`` link failures on the path of one of the ViSC turbines (every 0.6 s a
 switch-to-switch link of the path currently carrying it fails, ``path_link_down``, and is restored
-0.3 s later); then ``--failover-runs`` SDC kills and ``--controller-failover-runs`` kills of the
+0.3 s later; ``prp`` = 1+1 duplication over node-disjoint legs with fast failover, docs/sdn.md); then ``--failover-runs`` SDC kills and ``--controller-failover-runs`` kills of the
 master SDN app (scenarios/controller_failover.yaml). Every fault is measured the same way at the
 turbine, whatever reacted (summary.json → ``interruptions``, scenarios/interruptions.py): the longest
 pause of its control packets around the fault, with no threshold below which a repair disappears.
@@ -60,6 +60,8 @@ MECHANISMS = {
     "dr": {"dynamic_routing": True, "reroute_on_port_status": False},
     "port_status": {"dynamic_routing": True, "reroute_on_port_status": True},
     "ff": {"dynamic_routing": True, "reroute_on_port_status": False, "fast_failover": True},
+    # 1+1 duplication over node-disjoint legs (sdn_app/duplication.py), fast failover for what is single
+    "prp": {"dynamic_routing": True, "reroute_on_port_status": False, "fast_failover": True, "duplicate_paths": True},
 }
 
 
@@ -171,6 +173,8 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--failures", type=int, default=16,
                         help="link failures per (topology, mechanism) run (0: failover runs only)")
+    parser.add_argument("--mechanisms", default=",".join(MECHANISMS),
+                        help=f"comma-separated subset of {','.join(MECHANISMS)} for the link-failure runs")
     parser.add_argument("--failover-runs", type=int, default=20, help="SDC kills (one per run)")
     parser.add_argument("--controller-failover-runs", type=int, default=5, help="kills of the master SDN app")
     parser.add_argument("--floor-repeat", type=int, default=20, help="repetitions of the Open vSwitch floor")
@@ -188,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
                         help="also this many fault-free runs per case of benchmarks/liveness_soak.py (false positives)")
     parser.add_argument("--soak-duration", type=float, default=60.0)
     args = parser.parse_args(argv)
+    mechanisms = {m: MECHANISMS[m] for m in args.mechanisms.split(",") if m}
+    if not mechanisms or len(mechanisms) != len([m for m in args.mechanisms.split(",") if m]):
+        parser.error(f"--mechanisms: a comma-separated subset of {','.join(MECHANISMS)}")
     if os.geteuid() != 0:
         print("benchmarks/recovery.py needs root (Mininet)", file=sys.stderr)
         return 2
@@ -217,14 +224,14 @@ def main(argv: list[str] | None = None) -> int:
                     "switch_ports": args.switch_ports,
                     "units": "ms (simulated ms at a time scale above 1; the floor is wall ms)", "floor": floor,
                     "runs": {}}
-    records: dict[str, list[dict]] = {m: [] for m in MECHANISMS}
-    restore_records: dict[str, list[dict]] = {m: [] for m in MECHANISMS}  # what each link's return did
+    records: dict[str, list[dict]] = {m: [] for m in mechanisms}
+    restore_records: dict[str, list[dict]] = {m: [] for m in mechanisms}  # what each link's return did
     by_topology: dict[str, dict] = {}
-    recovery_ms: dict[str, list[float]] = {m: [] for m in MECHANISMS}
+    recovery_ms: dict[str, list[float]] = {m: [] for m in mechanisms}
     detect: dict[str, list[float]] = {"dr": [], "sdc_failover": []}
     step_s = 0.67e-3
     for topo_name, (topo, turbines) in (TOPOLOGIES.items() if args.failures > 0 else ()):
-        for mech, sdn in MECHANISMS.items():
+        for mech, sdn in mechanisms.items():
             name = f"recovery_{topo_name}_{mech}"
             summary = run(failure_scenario(name, topo, turbines, sdn, args.failures), work, *scale)
             step_s = summary["step_s"]
@@ -250,29 +257,30 @@ def main(argv: list[str] | None = None) -> int:
     for i in range(args.controller_failover_runs):
         summary = run_file(ROOT / "scenarios" / "controller_failover.yaml", work / f"controller_failover_{i}", *scale)
         controller_records += summary["interruptions"]
-    for mech in MECHANISMS:
+    for mech in mechanisms:
         result[mech] = {"interruption_ms": aggregate(records[mech], step_s), "recovery_ms": percentiles(recovery_ms[mech]),
                         "link_return_interruption_ms": aggregate(restore_records[mech], step_s)}
-    result["dr_p95_ms"] = result["dr"]["interruption_ms"].get("p95")
-    result["port_status_p95_ms"] = result["port_status"]["interruption_ms"].get("p95")
-    result["ff_p95_ms"] = result["ff"]["interruption_ms"].get("p95")
+    for mech in mechanisms:
+        result[f"{mech}_p95_ms"] = result[mech]["interruption_ms"].get("p95")
     result["by_topology"] = by_topology
     if floor and by_topology:
         ovs_ff = floor["ff_port_down_ms"].get("p95")
         ovs_mod = floor["flow_mod_ms"].get("p95")
         # the floor is wall time; at a time scale k the network looked k times faster: floor / k
-        result["ff_over_floor"] = {t: round(m["ff"]["p95"] / (ovs_ff / m["ff"]["time_scale"]), 2)
-                                   if ovs_ff and m["ff"].get("p95") else None for t, m in by_topology.items()}
+        for mech in ("ff", "prp"):  # prp_over_floor: the same ratio for 1+1 duplication
+            result[f"{mech}_over_floor"] = {t: round(m[mech]["p95"] / (ovs_ff / m[mech]["time_scale"]), 2)
+                                            if ovs_ff and m.get(mech, {}).get("p95") else None
+                                            for t, m in by_topology.items() if mech in m}
         result["dr_excess_ms"] = {t: round(m["dr"]["p95"] - (DR_HOLD_MS + ovs_mod / m["dr"]["time_scale"]
                                                              + (m["dr"]["path_one_way_p99_ms"] or 0)), 2)
                                   if ovs_mod is not None and m["dr"].get("p95") is not None else None
-                                  for t, m in by_topology.items()}
+                                  for t, m in by_topology.items() if "dr" in m}
     if by_topology:
         # the same faults against what the network itself needed in the same run (the first datagram
         # through after the losses, by its send time: scenarios/interruptions.py): the endpoints' share
         result["ff_over_run_repair"] = {t: round(m["ff"]["p95"] / m["ff"]["path_restored_ms"]["p95"], 2)
                                         if m["ff"].get("p95") and m["ff"].get("path_restored_ms") else None
-                                        for t, m in by_topology.items()}
+                                        for t, m in by_topology.items() if "ff" in m}
     result["failover_runs"] = args.failover_runs
     result["failover_ms"] = percentiles(failover)
     result["failover_p95_ms"] = result["failover_ms"].get("p95")

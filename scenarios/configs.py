@@ -30,7 +30,8 @@ def app_config(sc: Scenario, desc: dict, out_dir: str, clock: dict | None = None
     return AppConfig(**(clock or {}), topology=desc, controller_vip=CONTROLLER_VIP, controller_vmac=CONTROLLER_VMAC,
                      visc_disabled=sc.sdn.visc_disabled, dr_hold_s=sc.sdn.dr_hold_s, ak_timeout_s=sc.sdn.ak_timeout_s,
                      dynamic_routing=sc.sdn.dynamic_routing, reroute_on_port_status=sc.sdn.reroute_on_port_status,
-                     failover=sc.sdn.failover, fast_failover=sc.sdn.fast_failover, sdc_dead_s=sc.sdn.sdc_dead_s,
+                     failover=sc.sdn.failover, fast_failover=sc.sdn.fast_failover,
+                     duplicate_paths=sc.sdn.duplicate_paths, sdc_dead_s=sc.sdn.sdc_dead_s,
                      mirror_to_backup=sc.sdn.mirror_to_backup, turbine_fallback_s=sc.plant.remote_loss_fallback_s,
                      backup_sdc="sdc2" if sc.sdc.backup else None, state_dir=out_dir)
 

@@ -130,6 +130,8 @@ class SdnSpec(Strict):
     dynamic_routing: bool = Field(True, description="act on DR_i (reroute); false reproduces the no-DR case")
     reroute_on_port_status: bool = Field(False, description="also reroute at once on port-status link down")
     fast_failover: bool = Field(False, description="pre-install OpenFlow fast-failover groups with detours")
+    duplicate_paths: bool = Field(False, description="1+1 duplication: each packet also on a second, node-disjoint "
+                                  "leg; the receivers drop the copy (PRP-like, docs/sdn.md)")
     redundancy: bool = Field(False, description="run a second SDN app instance as OpenFlow slave that takes over")
     visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")

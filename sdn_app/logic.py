@@ -235,7 +235,8 @@ class Controller:
         st = self.state
         return {
             **st.tables.as_dict(),
-            "paths": {n: {"sdc": p.sdc, "path": p.path, "installed_at": p.installed_at, "reroutes": p.reroutes}
+            "paths": {n: {"sdc": p.sdc, "path": p.path, "installed_at": p.installed_at, "reroutes": p.reroutes,
+                          "second_leg": p.second_leg}
                       for n, p in st.paths.items()},
             "down_links": sorted(sorted(k) for k in st.down_links),
             "active_sdc": st.active_sdc,

@@ -49,9 +49,30 @@ class Recovery:
             for name, active in list(st.paths.items()):
                 if key in path_links(active.path) and name not in self.partitioned:
                     actions += self.reroute(name, "port_status", now, t_loss=None)
+        if not up and st.config.duplicate_paths:
+            actions += self.repair_pairs(key, now)
         if up:
             actions += self.heal(now)
             actions += self.reprotect(key, now)
+        return actions
+
+    def repair_pairs(self, key: frozenset, now: float) -> list:
+        """A link of a duplicated path went down: the packets still arrive over the other leg (no
+        loss, so no DR); give the path two legs again, as the network now allows (make before
+        break, the DR hold untouched). A path already moved by ``reroute_on_port_status`` is not
+        touched twice."""
+        st = self.state
+        actions: list = []
+        for name, active in sorted(st.paths.items()):
+            legs = path_links(active.path) + (path_links(active.second_leg) if active.second_leg else [])
+            if key not in legs or name in self.partitioned or active.installed_at == now:
+                continue
+            path = st.path_to(active.sdc, name)
+            if path is None:
+                continue  # nothing left to pair: the DR machinery reports the loss
+            actions += self.routing.install(name, active.sdc, path, now)
+            st.counters["pairs_repaired"] += 1
+            st.event(now, "pair_repaired", wt=name, link=sorted(key), path=path, second_leg=st.paths[name].second_leg)
         return actions
 
     def reprotect(self, key: frozenset, now: float) -> list:

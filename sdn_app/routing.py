@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 from sdn_app import flows as fl
+from sdn_app.duplication import duplicate, second_leg
 from sdn_app.messages import Messenger
 from sdn_app.paths import hops, link_key, path_links
 from sdn_app.protection import protect_direction
@@ -35,7 +36,7 @@ class Routing:
         wt_ip = st.tables.t1[active.wt].ip
         if active.sdc == st.config.primary_sdc:
             flows = fl.path_flows(hops(st.graph, active.path), st.dpids, st.host(active.sdc).ip, wt_ip, active.cookie)
-            flows = self._guard_ingress(active, flows)
+            flows = self._duplicate(active, self._guard_ingress(active, flows))
             return self._protect(active, flows + self._mirror_flows(active, flows))
         # served by a substitute SDC while addressing the primary's address
         return self._guard_ingress(active, fl.substitute_path_flows(
@@ -77,6 +78,25 @@ class Routing:
         active.protected_without = frozenset(st.down_links)
         st.counters["ff_groups"] += len(groups)
         return groups + out + detours
+
+    def _duplicate(self, active: ActivePath, flows: list) -> list:
+        """With ``duplicate_paths``: the second leg's flows (:mod:`sdn_app.duplication`); a path
+        without one stays single (event ``not_duplicated``)."""
+        st = self.state
+        if not st.config.duplicate_paths:
+            return flows
+        path = active.path if active.path[0] == active.sdc else list(reversed(active.path))
+        leg = second_leg(st.graph, st.dpids, path, st.down_links)
+        active.second_leg = leg
+        active.protected_without = frozenset(st.down_links)
+        if leg is None:
+            st.counters["not_duplicated"] += 1
+            st.event(active.installed_at, "not_duplicated", wt=active.wt, path=path,
+                     down_links=sorted(sorted(k) for k in st.down_links))
+            return flows
+        st.counters["duplicated"] += 1
+        return duplicate(st.graph, st.dpids, leg, flows, st.host(active.sdc).ip, st.tables.t1[active.wt].ip,
+                         active.cookie)
 
     def _guard_ingress(self, active: ActivePath, flows: list) -> list:
         """Access control: on the OpenFlow switch where the turbine's packets enter, its upstream

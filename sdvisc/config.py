@@ -186,6 +186,8 @@ class AppConfig(ClockSettings):
     dynamic_routing: bool = Field(True, description="act on DR_i by rerouting (false: detect and log only)")
     fast_failover: bool = Field(False, description="pre-install fast-failover groups with detours (data-plane repair)")
     reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
+    duplicate_paths: bool = Field(False, description="1+1: every packet also on a second, node-disjoint leg "
+                                  "between the path's first and last OpenFlow switch (sdn_app.duplication)")
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
     sdc_dead_s: float = Field(0.030, gt=0, description="an SDC is dead after this long without a heartbeat, s")
     mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
