@@ -16,6 +16,17 @@ Two measurements, ``--repeat`` times each:
 
 ``--load K`` adds K more 1500 packet/s streams through the same bridge (between extra hosts), the
 kind of load a farm with K ViSC turbines puts on the switch process.
+
+``--topology NAME`` (paper or farm) measures instead, on the testbed's own topology, what *any* link
+event costs a stream that does not cross it (``port_event_stall_ms``) and the fast-failover bucket
+switch when a switch-to-switch link of the stream's switch goes down (``ff_port_down_ms``; the
+bridge set and its port count as in a run, no other traffic). For the stall: the testbed's topology is built (its bridges and ports, no
+controller), a 1500 packet/s stream runs between two hosts on one switch, and a switch-to-switch
+link elsewhere is taken down and brought up ``--repeat`` times; per event, the stream's longest
+pause in the 0.3 s after it, less one period; ``baseline_pause_ms`` the same over quiet windows.
+Every link event in the system makes this Open vSwitch reconfigure all its bridges on its main
+thread (coverage counter ``bridge_reconfigure``), the thread that also forwards every ``system``
+port: no protection of the failed path can avoid that pause.
 Prints one JSON object (p50/p95/max per measurement, the machine, the datapath).
 """
 
@@ -54,6 +65,16 @@ while True:
         time.sleep(d)
 """
 
+EVERY_ARRIVAL = """
+import socket, sys, time
+s = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x0800))
+s.bind((sys.argv[1], 0))
+while True:
+    frame = s.recv(2048)
+    if len(frame) >= 38 and frame[23] == 17 and frame[36:38] == (9999).to_bytes(2, "big"):
+        print(repr(time.time()), flush=True)
+"""
+
 RECEIVER = """
 import socket, sys, time
 s = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(0x0800))
@@ -70,7 +91,9 @@ while True:
 
 
 def ofctl(*args: str) -> None:
-    subprocess.run(["ovs-ofctl", "-O", "OpenFlow13", *args], check=True, capture_output=True)
+    res = subprocess.run(["ovs-ofctl", "-O", "OpenFlow13", *args], capture_output=True, text=True)
+    if res.returncode:
+        raise RuntimeError(f"ovs-ofctl {' '.join(args)}: {res.stderr.strip()}")
 
 
 def first_arrival(receiver, timeout_s: float = 2.0) -> float | None:
@@ -157,6 +180,87 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
         cleanup.clean()
 
 
+def measure_topology(topology: str, repeat: int = 20, params: dict | None = None) -> dict:
+    """``port_event_stall_ms`` and ``ff_port_down_ms`` on the testbed's ``topology`` (module docstring)."""
+    import threading  # noqa: PLC0415
+
+    from topologies import topos  # noqa: PLC0415
+
+    params = params or {"paper": {"clusters": 5, "turbines": 2}, "farm": {"clusters": 5, "turbines": 10}}[topology]
+    cleanup.clean()
+    net = Mininet(topo=topos[topology](**params), switch=TestbedSwitch, controller=None, build=False)
+    procs, arrivals = [], []
+    try:
+        net.build()
+        net.start()  # no controller: the stream's flow is added below
+        for h in net.hosts:
+            h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
+        src, dst = net.get("owfcc"), net.get("sdc1")  # on one OpenFlow switch in both topologies
+        link = src.defaultIntf().link
+        switch = (link.intf2 if link.intf1.node is src else link.intf1).node
+        port = {h.name: switch.ports[switch.connectionsTo(h)[0][0]] for h in (src, dst)}
+        ofctl("add-flow", switch.name, "priority=1,arp,actions=FLOOD")
+        ofctl("add-flow", switch.name, f"priority=10,in_port={port[src.name]},udp,actions=output:{port[dst.name]}")
+        receiver = dst.popen([sys.executable, "-u", "-c", EVERY_ARRIVAL, dst.defaultIntf().name], text=True)
+        procs += [receiver, src.popen([sys.executable, "-c", SENDER, dst.IP(), "1500"])]
+
+        def read():
+            for line in receiver.stdout:
+                arrivals.append(float(line))
+        threading.Thread(target=read, daemon=True).start()
+        others = [(a, b) for a, b in ((lk.intf1, lk.intf2) for lk in net.links)
+                  if a.node in net.switches and b.node in net.switches and switch not in (a.node, b.node)]
+        a_end, b_end = others[0]
+        time.sleep(1.0)
+        events, quiet = [], []
+        for _ in range(repeat):
+            quiet.append(time.time())
+            time.sleep(0.3)
+            for up in (False, True):
+                t = set_link_up(a_end.name, up)
+                set_link_up(b_end.name, up)
+                events.append(t)
+                time.sleep(0.3)
+        time.sleep(0.2)
+        period_ms = 1e3 / 1500
+        stamps = np.array(arrivals)
+
+        def pause(t0: float) -> float | None:
+            window = stamps[(stamps >= t0 - 0.002) & (stamps <= t0 + 0.3)]
+            return float(np.diff(window).max() * 1e3 - period_ms) if len(window) > 2 else None
+        stall, baseline = stats([pause(t) for t in events]), stats([pause(t) for t in quiet])
+        # fast failover on this topology: the stream goes through a group whose first bucket watches and
+        # uses a switch-to-switch link of its switch (into the neighbour, which drops it: no flow there),
+        # the second sdc1's port; that link goes down: time to the first packet at sdc1
+        (own_end, far_end), = [(a, b) if a.node is switch else (b, a) for a, b in
+                               ((lk.intf1, lk.intf2) for lk in net.links)
+                               if switch in (a.node, b.node) and {a.node, b.node} <= set(net.switches)][:1]
+        uplink = switch.ports[own_end]
+        ofctl("add-group", switch.name, f"group_id=1,type=ff,bucket=watch_port:{uplink},output:{uplink},"
+                                        f"bucket=watch_port:{port[dst.name]},output:{port[dst.name]}")
+        ofctl("add-flow", switch.name, f"priority=20,in_port={port[src.name]},udp,actions=group:1")
+        ff = []
+        for _ in range(repeat):
+            time.sleep(0.3)
+            t_down = set_link_up(own_end.name, False)
+            set_link_up(far_end.name, False)
+            time.sleep(0.3)
+            after = [t for t in list(arrivals[-1000:]) if t > t_down]
+            ff.append((after[0] - t_down) * 1e3 if after else None)
+            set_link_up(own_end.name, True)
+            set_link_up(far_end.name, True)
+        return {"benchmark": "ovs_latency --topology", "topology": topology, "params": params,
+                "bridges": len(net.switches), "ports": sum(len(s.intfList()) - 1 for s in net.switches),
+                "link_toggled": [a_end.name, b_end.name], "stream_switch": switch.name, "repeat": repeat,
+                "port_event_stall_ms": stall, "baseline_pause_ms": baseline,
+                "ff_link": [own_end.name, far_end.name], "ff_port_down_ms": stats(ff)}
+    finally:
+        for p in procs:
+            p.kill()
+        net.stop()
+        cleanup.clean()
+
+
 def ovs_cpu_s() -> float:
     """CPU seconds ovs-vswitchd has used (user + system, /proc)."""
     pid = subprocess.run(["pidof", "ovs-vswitchd"], capture_output=True, text=True).stdout.split()[0]
@@ -170,7 +274,12 @@ def main() -> None:
     ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
     ap.add_argument("--port-type", choices=PORT_TYPES, default="system",
                     help="the switch side of the veths: system (Mininet's default) or AF_XDP")
+    ap.add_argument("--topology", choices=("paper", "farm"),
+                    help="instead: the port-event stall and fast failover on this testbed topology")
     args = ap.parse_args()
+    if args.topology:
+        print(json.dumps(measure_topology(args.topology, args.repeat), indent=1))
+        return
     print(json.dumps(measure(args.repeat, args.load, args.port_type), indent=1))
 
 

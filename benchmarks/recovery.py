@@ -19,7 +19,11 @@ the turbines' one-way p99 as the path's delay; goal ≤ 5), per topology. ``fail
 first control packet from the backup, p95 (goal ≤ 60). The floor in the run itself:
 ``path_restored_ms`` per mechanism (fault → the first MEAS/CTRL through again, by its send time: what
 the network needed on this topology under this load, no endpoint delay) and ``ff_over_run_repair``
-= FF interruption p95 / its path-restored p95 (the endpoints' share). ``--time-scale K|auto`` runs the scenarios in
+= FF interruption p95 / its path-restored p95 (the endpoints' share). ``ff_over_topology_floor`` /
+``prp_over_topology_floor``: the same p95 over Open vSwitch's fast failover on the run's own
+topology (``ovs_latency.measure_topology``: all its bridges and ports, no other traffic; ``system``
+ports), where every link event also makes Open vSwitch reconfigure every bridge on the thread that
+forwards (``port_event_stall_ms``). ``--time-scale K|auto`` runs the scenarios in
 virtual time (figures in simulated ms; the floor stays wall ms). Needs root; ~10 minutes.
 
     python benchmarks/recovery.py [--failures 16] [--failover-runs 20] [--controller-failover-runs 5]
@@ -220,9 +224,16 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     load_before = os.getloadavg()
     floor = ovs_latency.measure(args.floor_repeat, port_type=args.switch_ports) if args.floor_repeat else None
+    # the same Open vSwitch on each run's own topology (its bridges and ports, no other traffic): fast
+    # failover there, and the pause any link event causes on a stream it does not cross (system ports)
+    topology_floor = ({t: ovs_latency.measure_topology(topo["name"], args.floor_repeat,
+                                                       {k: v for k, v in topo.items() if k != "name"})
+                       for t, (topo, _) in TOPOLOGIES.items()}
+                      if args.floor_repeat and args.failures > 0 and args.switch_ports == "system" else {})
     result: dict = {"benchmark": "recovery", "failures_per_run": args.failures, "time_scale": args.time_scale,
                     "switch_ports": args.switch_ports,
                     "units": "ms (simulated ms at a time scale above 1; the floor is wall ms)", "floor": floor,
+                    "topology_floor": topology_floor,
                     "runs": {}}
     records: dict[str, list[dict]] = {m: [] for m in mechanisms}
     restore_records: dict[str, list[dict]] = {m: [] for m in mechanisms}  # what each link's return did
@@ -271,6 +282,11 @@ def main(argv: list[str] | None = None) -> int:
             result[f"{mech}_over_floor"] = {t: round(m[mech]["p95"] / (ovs_ff / m[mech]["time_scale"]), 2)
                                             if ovs_ff and m.get(mech, {}).get("p95") else None
                                             for t, m in by_topology.items() if mech in m}
+        for mech in ("ff", "prp"):  # against fast failover on the run's own topology
+            result[f"{mech}_over_topology_floor"] = {
+                t: round(m[mech]["p95"] / (topology_floor[t]["ff_port_down_ms"]["p95"] / m[mech]["time_scale"]), 2)
+                for t, m in by_topology.items()
+                if mech in m and m[mech].get("p95") and topology_floor.get(t, {}).get("ff_port_down_ms", {}).get("p95")}
         result["dr_excess_ms"] = {t: round(m["dr"]["p95"] - (DR_HOLD_MS + ovs_mod / m["dr"]["time_scale"]
                                                              + (m["dr"]["path_one_way_p99_ms"] or 0)), 2)
                                   if ovs_mod is not None and m["dr"].get("p95") is not None else None
