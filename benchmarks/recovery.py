@@ -159,6 +159,25 @@ def failover_scenario(name: str) -> dict:
                                                                         "process": "sdc"}]}
 
 
+def dr_breakdown(summary: dict) -> dict[str, list[float]]:
+    """Each DR of a run, fault → first control packet cut in three: the fault until the app's
+    decision, the decision until every switch of the new path acknowledged its flows (``path_ready``),
+    and that until the turbine's first control packet (the new path's first round trip)."""
+    ready = sorted((e["t"], e["wt"]) for e in summary["events"] if e["type"] == "path_ready")
+    parts: dict[str, list[float]] = {"fault_to_decision": [], "decision_to_flows_acknowledged": [],
+                                     "flows_acknowledged_to_control": []}
+    for r in summary["recoveries"]:
+        if r["cause"] != "dr" or r.get("t_detect") is None or r.get("t_restored") is None:
+            continue
+        t_ready = next((t for t, wt in ready if wt == r["wt"] and t >= r["t_detect"] - 1e-6), None)
+        if t_ready is None or t_ready > r["t_restored"]:
+            continue
+        parts["fault_to_decision"].append((r["t_detect"] - r["t_fault"]) * 1e3)
+        parts["decision_to_flows_acknowledged"].append((t_ready - r["t_detect"]) * 1e3)
+        parts["flows_acknowledged_to_control"].append((r["t_restored"] - t_ready) * 1e3)
+    return parts
+
+
 def percentiles(values: list[float]) -> dict:
     if not values:
         return {"n": 0}
@@ -240,6 +259,8 @@ def main(argv: list[str] | None = None) -> int:
     by_topology: dict[str, dict] = {}
     recovery_ms: dict[str, list[float]] = {m: [] for m in mechanisms}
     detect: dict[str, list[float]] = {"dr": [], "sdc_failover": []}
+    dr_parts: dict[str, list[float]] = {"fault_to_decision": [], "decision_to_flows_acknowledged": [],
+                                        "flows_acknowledged_to_control": []}
     step_s = 0.67e-3
     for topo_name, (topo, turbines) in (TOPOLOGIES.items() if args.failures > 0 else ()):
         for mech, sdn in mechanisms.items():
@@ -251,6 +272,9 @@ def main(argv: list[str] | None = None) -> int:
             restore_records[mech] += summary.get("restore_interruptions", [])
             recovery_ms[mech] += [r["recovery_ms"] for r in recs if r["recovery_ms"] is not None]
             detect["dr"] += [r["detect_ms"] for r in recs if r["cause"] == "dr" and r["detect_ms"] is not None]
+            if mech == "dr":
+                for part, values in dr_breakdown(summary).items():
+                    dr_parts[part] += values
             by_topology.setdefault(topo_name, {})[mech] = {**aggregate(inter, step_s),
                                                            "path_one_way_p99_ms": path_one_way_ms(summary),
                                                            "time_scale": summary["time"]["time_scale"]}
@@ -304,6 +328,7 @@ def main(argv: list[str] | None = None) -> int:
     result["controller_failover_runs"] = args.controller_failover_runs
     result["controller_failover_interruption_ms"] = aggregate(controller_records, step_s)
     result["detect_ms"] = {k: percentiles(v) for k, v in detect.items()}  # fault → the app's decision
+    result["dr_breakdown_ms"] = {k: percentiles(v) for k, v in dr_parts.items()}
     if args.soak_runs:
         soak = {}
         for case in ("paper", "farm4"):

@@ -121,6 +121,9 @@ class Controller:
         if name is not None:
             self.state.dr.path_ready(name, now)
             self.state.counters["paths_acknowledged"] += 1
+            active = self.state.paths[name]
+            self.state.event(now, "path_ready", wt=name, version=active.reroutes,
+                             after_ms=round((now - active.installed_at) * 1e3, 3))
         return []
 
     def tick(self, now: float) -> list:

@@ -285,6 +285,8 @@ def test_every_switch_of_a_new_path_gets_a_barrier_and_a_late_reply_is_not_a_sec
     assert ctl.tick(1.615) == [] and new_path.ready_at is None
     ctl.barrier_reply(barriers[-1].dpid, barriers[-1].tag, 1.612)
     assert new_path.ready_at == pytest.approx(1.612)
+    (ready,) = [e for e in ctl.take_events() if e["type"] == "path_ready"]  # reported once, for the new version
+    assert ready["version"] == new_path.reroutes and ready["after_ms"] == pytest.approx(64.0)  # installed at 1.548
     ak(ctl, seq + 1, 1, 0.0005, 1.618)  # the new path delivers: no DR at all
     assert ctl.tick(1.700) == [] and not [e for e in ctl.take_events() if e["type"] == "dr"]
 
