@@ -61,10 +61,11 @@ class TestbedCLI(SessionCommands, CLI):
                   f"{tables['T2'].get(n, '?'):4} {tables['T3'].get(n, '?')}")
 
     def do_paths(self, _line):
-        """paths: the installed path of every ViSC turbine."""
+        """paths: the installed path of every ViSC turbine (and its second leg with sdn.duplicate_paths)."""
         paths = (self.testbed.sdn_state() or {}).get("tables", {}).get("paths", {})
         for n, p in sorted(paths.items()):
-            print(f"{n}: {' -> '.join(p['path'])}")
+            leg = f"   (copies also via {' -> '.join(p['second_leg'])})" if p.get("second_leg") else ""
+            print(f"{n}: {' -> '.join(p['path'])}{leg}")
         if not paths:
             print("no paths installed")
 
