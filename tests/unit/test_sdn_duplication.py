@@ -13,7 +13,7 @@ from sdn_app.logic import Controller
 from sdn_app.paths import link_key, path_links
 from sdvisc import wire
 from sdvisc.config import AppConfig
-from tests.unit.test_sdn_fast_failover import switch_tables
+from tests.unit.test_sdn_fast_failover import matching_flow, switch_tables
 from tests.unit.test_sdn_logic import frame, ingress, request
 from topologies import topos
 from topologies.base import describe
@@ -45,13 +45,11 @@ def copies(ctl, flows, groups, src_host, dst_host, down: set, max_hops=30) -> in
                 frontier.append((nxt, node, n + 1))
             continue
         dpid = ctl.dpids[node]
-        in_port = g.edges[node, prev]["ports"][node]
-        cands = [f for f in flows.get(dpid, []) if f.match.get("ipv4_src") == src.ip
-                 and f.match.get("ipv4_dst") == dst.ip and f.match.get("in_port", in_port) == in_port]
-        if not cands:
+        flow, in_port = matching_flow(ctl, flows, node, prev, src, dst)
+        if flow is None:
             continue  # table miss: to the controller, not forwarded
         outs = []
-        for act in max(cands, key=lambda f: f.priority).actions:
+        for act in flow.actions:
             if isinstance(act, fl.SetField):
                 break  # what follows is a rewritten copy (to the backup SDC): another packet
             if isinstance(act, fl.Output):

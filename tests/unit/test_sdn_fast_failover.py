@@ -24,6 +24,15 @@ def switch_tables(actions):
     return flows, groups
 
 
+def matching_flow(ctl, flows, node: str, prev: str, src, dst):
+    """The flow switch ``node`` applies to a UDP packet src → dst arriving from ``prev`` (None: table
+    miss); returns (flow, in_port)."""
+    in_port = ctl.graph.edges[node, prev]["ports"][node]
+    cands = [f for f in flows.get(ctl.dpids[node], []) if f.match.get("ipv4_src") == src.ip
+             and f.match.get("ipv4_dst") == dst.ip and f.match.get("in_port", in_port) == in_port]
+    return (max(cands, key=lambda f: f.priority) if cands else None), in_port
+
+
 def walk(ctl, flows, groups, src_host, dst_host, down: set, max_hops=20):
     """Follow a UDP packet src_host → dst_host through the flows; return the hosts/switches visited."""
     g = ctl.graph
@@ -44,12 +53,9 @@ def walk(ctl, flows, groups, src_host, dst_host, down: set, max_hops=20):
             prev, node = node, nxt
             continue
         dpid = ctl.dpids[node]
-        in_port = g.edges[node, prev]["ports"][node]
-        cands = [f for f in flows.get(dpid, []) if f.match.get("ipv4_src") == src.ip
-                 and f.match.get("ipv4_dst") == dst.ip and f.match.get("in_port", in_port) == in_port]
-        if not cands:
+        flow, in_port = matching_flow(ctl, flows, node, prev, src, dst)
+        if flow is None:
             return visited + ["<table miss>"]
-        flow = max(cands, key=lambda f: f.priority)
         out = None
         for act in flow.actions:
             if isinstance(act, fl.Group):
