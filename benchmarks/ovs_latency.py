@@ -276,9 +276,11 @@ def main() -> None:
                     help="the switch side of the veths: system (Mininet's default) or AF_XDP")
     ap.add_argument("--topology", choices=("paper", "farm"),
                     help="instead: the port-event stall and fast failover on this testbed topology")
+    ap.add_argument("--layout", choices=("compact", "tower"), default="compact", help="farm's layout (--topology farm)")
     args = ap.parse_args()
     if args.topology:
-        print(json.dumps(measure_topology(args.topology, args.repeat), indent=1))
+        params = {"clusters": 5, "turbines": 10, "layout": args.layout} if args.topology == "farm" else None
+        print(json.dumps(measure_topology(args.topology, args.repeat, params), indent=1))
         return
     print(json.dumps(measure(args.repeat, args.load, args.port_type), indent=1))
 
