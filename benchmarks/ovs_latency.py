@@ -1,6 +1,7 @@
 """What Open vSwitch itself needs on this machine to move a packet stream, without the testbed.
 
 Usage (root):  .venv/bin/python benchmarks/ovs_latency.py [--repeat 20] [--load 0]   (~1 min)
+               .venv/bin/python benchmarks/ovs_latency.py --topology paper|farm [--layout tower] [--repeat 20]
 
 One bridge of the testbed's switch class (the userspace datapath where the kernel has no Open
 vSwitch module), host h1 sending a 1500 packet/s UDP stream (the testbed's rate at Ts = 0.67 ms)

@@ -139,7 +139,8 @@ def rejections(plant: dict, sdcs: dict, sdn: dict, owfcc: dict) -> dict:
 
 
 NOT_SCALED = ("Open vSwitch: packet forwarding, revalidation (not within 5 ms of the previous round), "
-              "port-down detection, inactivity probes, MAC ageing", "kernel: socket and qdisc queues, veths",
+              "port-down detection, inactivity probes, MAC ageing, the reconfiguration of every bridge at any link "
+              "event (forwarding pauses meanwhile)", "kernel: socket and qdisc queues, veths",
               "OpenFlow message handling inside ovs-vswitchd")
 
 
