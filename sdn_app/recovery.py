@@ -59,13 +59,15 @@ class Recovery:
     def repair_pairs(self, key: frozenset, now: float) -> list:
         """A link of a duplicated path went down: the packets still arrive over the other leg (no
         loss, so no DR); give the path two legs again, as the network now allows (make before
-        break, the DR hold untouched). A path already moved by ``reroute_on_port_status`` is not
-        touched twice."""
+        break, the DR hold untouched). A path with one leg only lost its packets: that is the DR's
+        (or fast failover's) to repair, as without duplication. A path already moved by
+        ``reroute_on_port_status`` is not touched twice."""
         st = self.state
         actions: list = []
         for name, active in sorted(st.paths.items()):
-            legs = path_links(active.path) + (path_links(active.second_leg) if active.second_leg else [])
-            if key not in legs or name in self.partitioned or active.installed_at == now:
+            if active.second_leg is None or name in self.partitioned or active.installed_at == now:
+                continue
+            if key not in path_links(active.path) + path_links(active.second_leg):
                 continue
             path = st.path_to(active.sdc, name)
             if path is None:

@@ -150,6 +150,18 @@ def test_a_failed_leg_is_replaced_without_a_dr():
     assert any(isinstance(a, fl.FlowDelete) for a in actions), "the old version is removed (make before break)"
 
 
+def test_a_single_leg_path_is_left_to_dr_when_its_link_fails():
+    """Without a second leg a failure loses the packets: no hitless re-pairing (the DR, or fast
+    failover, repairs it, with the hold armed from the new path as after any reroute)."""
+    ctl = controller("paper", clusters=1, turbines=2)
+    ctl.state.down_links |= {link_key("s2", "s3"), link_key("s3", "s4")}  # s3 only via s1-s3: no leg
+    visc_on(ctl, "wt1_1")
+    assert ctl.paths["wt1_1"].path == ["sdc1", "s1", "s3", "l2", "wt1_1"] and ctl.paths["wt1_1"].second_leg is None
+    port = ctl.graph.edges["s3", "l2"]["ports"]["s3"]
+    ctl.port_status(ctl.dpids["s3"], port, up=False, now=2.0)  # another path exists: s1-s4-l2
+    assert ctl.counters["pairs_repaired"] == 0 and ctl.paths["wt1_1"].reroutes == 0
+
+
 def test_duplicated_flows_serialise_with_two_outputs():
     from types import SimpleNamespace
 
