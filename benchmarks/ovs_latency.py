@@ -39,6 +39,7 @@ import os
 import platform
 import subprocess
 import sys
+import threading
 import time
 from pathlib import Path
 
@@ -51,6 +52,7 @@ from scenarios import switch_ports  # noqa: E402
 from scenarios.switch_ports import SWITCH_PORT_TYPES  # noqa: E402
 from sdvisc import cleanup  # noqa: E402
 from sdvisc.netns import set_link_up  # noqa: E402
+from topologies import topos  # noqa: E402
 from topologies.base import TestbedSwitch, default_datapath  # noqa: E402
 
 SENDER = """
@@ -183,10 +185,6 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
 
 def measure_topology(topology: str, repeat: int = 20, params: dict | None = None) -> dict:
     """``port_event_stall_ms`` and ``ff_port_down_ms`` on the testbed's ``topology`` (module docstring)."""
-    import threading  # noqa: PLC0415
-
-    from topologies import topos  # noqa: PLC0415
-
     params = params or {"paper": {"clusters": 5, "turbines": 2}, "farm": {"clusters": 5, "turbines": 10}}[topology]
     cleanup.clean()
     net = Mininet(topo=topos[topology](**params), switch=TestbedSwitch, controller=None, build=False)
@@ -233,9 +231,9 @@ def measure_topology(topology: str, repeat: int = 20, params: dict | None = None
         # fast failover on this topology: the stream goes through a group whose first bucket watches and
         # uses a switch-to-switch link of its switch (into the neighbour, which drops it: no flow there),
         # the second sdc1's port; that link goes down: time to the first packet at sdc1
-        (own_end, far_end), = [(a, b) if a.node is switch else (b, a) for a, b in
-                               ((lk.intf1, lk.intf2) for lk in net.links)
-                               if switch in (a.node, b.node) and {a.node, b.node} <= set(net.switches)][:1]
+        own_end, far_end = next((a, b) if a.node is switch else (b, a) for a, b in
+                                ((lk.intf1, lk.intf2) for lk in net.links)
+                                if switch in (a.node, b.node) and {a.node, b.node} <= set(net.switches))
         uplink = switch.ports[own_end]
         ofctl("add-group", switch.name, f"group_id=1,type=ff,bucket=watch_port:{uplink},output:{uplink},"
                                         f"bucket=watch_port:{port[dst.name]},output:{port[dst.name]}")

@@ -215,9 +215,11 @@ def main(argv: list[str] | None = None) -> int:
                         help="also this many fault-free runs per case of benchmarks/liveness_soak.py (false positives)")
     parser.add_argument("--soak-duration", type=float, default=60.0)
     args = parser.parse_args(argv)
-    mechanisms = {m: MECHANISMS[m] for m in args.mechanisms.split(",") if m}
-    if not mechanisms or len(mechanisms) != len([m for m in args.mechanisms.split(",") if m]):
-        parser.error(f"--mechanisms: a comma-separated subset of {','.join(MECHANISMS)}")
+    chosen = [m for m in args.mechanisms.split(",") if m]
+    unknown = sorted(set(chosen) - set(MECHANISMS))
+    if not chosen or unknown:
+        parser.error(f"--mechanisms: unknown {unknown}; a comma-separated subset of {','.join(MECHANISMS)}")
+    mechanisms = {m: MECHANISMS[m] for m in chosen}
     if os.geteuid() != 0:
         print("benchmarks/recovery.py needs root (Mininet)", file=sys.stderr)
         return 2
@@ -302,11 +304,11 @@ def main(argv: list[str] | None = None) -> int:
         ovs_ff = floor["ff_port_down_ms"].get("p95")
         ovs_mod = floor["flow_mod_ms"].get("p95")
         # the floor is wall time; at a time scale k the network looked k times faster: floor / k
-        for mech in ("ff", "prp"):  # prp_over_floor: the same ratio for 1+1 duplication
+        for mech in ("ff", "prp"):  # prp: the same ratios for 1+1 duplication
             result[f"{mech}_over_floor"] = {t: round(m[mech]["p95"] / (ovs_ff / m[mech]["time_scale"]), 2)
                                             if ovs_ff and m.get(mech, {}).get("p95") else None
                                             for t, m in by_topology.items() if mech in m}
-        for mech in ("ff", "prp"):  # against fast failover on the run's own topology
+            # against fast failover on the run's own topology
             result[f"{mech}_over_topology_floor"] = {
                 t: round(m[mech]["p95"] / (topology_floor[t]["ff_port_down_ms"]["p95"] / m[mech]["time_scale"]), 2)
                 for t, m in by_topology.items()

@@ -36,7 +36,7 @@ class ActivePath:
     params: dict = field(default_factory=dict)  # the ViSC parameters of the request (re-sent on re-engage)
     unacknowledged: set = field(default_factory=set)  # switches whose barrier reply is still awaited
     ready_at: float | None = None  # when the last switch of the path acknowledged its flows
-    protected_without: frozenset = frozenset()  # links down when its fast-failover detours were computed
+    protected_without: frozenset = frozenset()  # links down when its FF detours (or second leg) were computed
     second_leg: list[str] | None = None  # with duplicate_paths: the leg that carries the copies (A … B)
 
 
