@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import os
 import socket
+import threading
 from collections import Counter
 from pathlib import Path
 
@@ -70,9 +71,20 @@ class SdviscApp(app_manager.OSKenApp):
             self._events_file = None
         self._last_publish = 0.0
         self._barriers: dict[tuple[int, int], str] = {}  # (dpid, xid) -> path tag, until the reply
+        # os-ken's default hub is "native": the timer below and the OpenFlow event handlers run in
+        # separate OS threads. Every decision of the controller is taken under this lock, with the
+        # clock read inside it (a tick preempted into the middle of a port-status handling once saw
+        # a healed turbine half-restored and declared a second no_path for it)
+        self._lock = threading.RLock()
         self._timer = hub.spawn(self._timer_loop)  # ends when STOPPING is set
 
     # ------------------------------------------------------------------ plumbing
+    def _decide(self, decide, *args) -> None:
+        """One decision of the controller, ``decide(*args, now)``, under the app's lock, its
+        messages sent and events written before the next one is taken."""
+        with self._lock:
+            self._send(decide(*args, self.clock.now()))
+
     def _send(self, actions) -> None:
         if not self.roles.sends:
             self.of_counts["suppressed_as_slave"] += len(actions)
@@ -152,16 +164,19 @@ class SdviscApp(app_manager.OSKenApp):
 
     def _timer_loop(self) -> None:
         while not STOPPING:
-            now = self.clock.now()
-            self._peer(now)
-            self._send(self.logic.tick(now))
-            if now - self._last_publish >= PUBLISH_S:
-                self._last_publish = now
-                self._publish()
+            with self._lock:
+                now = self.clock.now()
+                self._peer(now)
+                self._send(self.logic.tick(now))
+                if now - self._last_publish >= PUBLISH_S:
+                    self._last_publish = now
+                    self._publish()
             hub.sleep(self.clock.wall_s(TICK_S))
 
     def stop(self):
         """Publish the final state and events before os-ken tears the app down."""
+        # the timer may be stuck in a send to a switch that is gone: do not wait for it forever
+        locked = self._lock.acquire(timeout=1.0)
         try:
             self._flush_events()
             self._publish(final=True)
@@ -175,6 +190,8 @@ class SdviscApp(app_manager.OSKenApp):
                 self._events_file.close()
                 self._events_file = None
         finally:
+            if locked:
+                self._lock.release()
             super().stop()
 
     # ------------------------------------------------------------------ OpenFlow events
@@ -182,19 +199,20 @@ class SdviscApp(app_manager.OSKenApp):
     def _features(self, ev):
         dp = ev.msg.datapath
         self.of_counts["rx_features"] += 1
-        self.datapaths[dp.id] = dp
-        self._request_role(dp)
-        self._send(self.logic.switch_up(dp.id, self.clock.now()))
-        # at once, not at the next PUBLISH_S of simulated time (1.6 s of wall at k = 16): the runner
-        # waits for every switch in sdn_state.json before t = 0
-        self._publish()
+        with self._lock:
+            self.datapaths[dp.id] = dp
+            self._request_role(dp)
+            self._decide(self.logic.switch_up, dp.id)
+            # at once, not at the next PUBLISH_S of simulated time (1.6 s of wall at k = 16): the runner
+            # waits for every switch in sdn_state.json before t = 0
+            self._publish()
 
     @set_ev_cls(ofp_event.EventOFPPacketIn, MAIN_DISPATCHER)
     def _packet_in(self, ev):
         msg = ev.msg
         self.of_counts["rx_packet_in"] += 1
         self.of_counts["rx_total"] += 1
-        self._send(self.logic.packet_in(msg.datapath.id, msg.match.get("in_port", 0), msg.data, self.clock.now()))
+        self._decide(self.logic.packet_in, msg.datapath.id, msg.match.get("in_port", 0), msg.data)
 
     @set_ev_cls(ofp_event.EventOFPPortStatus, MAIN_DISPATCHER)
     def _port_status(self, ev):
@@ -206,16 +224,17 @@ class SdviscApp(app_manager.OSKenApp):
         up = not (desc.state & ofp.OFPPS_LINK_DOWN) and not (desc.config & ofp.OFPPC_PORT_DOWN)
         if msg.reason == ofp.OFPPR_DELETE:
             up = False
-        self._send(self.logic.port_status(msg.datapath.id, desc.port_no, up, self.clock.now()))
+        self._decide(self.logic.port_status, msg.datapath.id, desc.port_no, up)
 
     @set_ev_cls(ofp_event.EventOFPBarrierReply, MAIN_DISPATCHER)
     def _barrier_reply(self, ev):
         msg = ev.msg
         self.of_counts["rx_barrier_reply"] += 1
         self.of_counts["rx_total"] += 1
-        tag = self._barriers.pop((msg.datapath.id, msg.xid), None)
-        if tag is not None:
-            self._send(self.logic.barrier_reply(msg.datapath.id, tag, self.clock.now()))
+        with self._lock:  # (the timer's sends fill _barriers)
+            tag = self._barriers.pop((msg.datapath.id, msg.xid), None)
+            if tag is not None:
+                self._decide(self.logic.barrier_reply, msg.datapath.id, tag)
 
     @set_ev_cls(ofp_event.EventOFPEchoRequest, [CONFIG_DISPATCHER, MAIN_DISPATCHER])
     def _echo(self, ev):

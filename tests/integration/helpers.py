@@ -28,7 +28,20 @@ def run_scenario(path: str | Path, out: Path, *extra: str, timeout: float = 300)
     res = sdvisc("run", str(path), "--out", str(out), "--quiet", *time_scale_args(), *extra,
                  timeout=timeout * float(TEST_TIME_SCALE))
     assert res.returncode == 0, f"sdvisc run failed ({res.returncode}):\n{res.stdout}\n{res.stderr}"
+    for name in ("sdn_events.jsonl", "sdn2_events.jsonl"):
+        assert_decisions_in_order(out / name)
     return json.loads((out / "summary.json").read_text())
+
+
+def assert_decisions_in_order(events_file: Path) -> None:
+    """The SDN app takes one decision at a time: its events are written in the order of their
+    clock readings (two of its threads deciding at once wrote a later tick's DR between a link-up
+    and the restoration it caused)."""
+    if not events_file.exists():
+        return
+    stamps = [json.loads(line)["t_wall"] for line in events_file.read_text().splitlines() if line.strip()]
+    behind = [(i, a, b) for i, (a, b) in enumerate(zip(stamps, stamps[1:])) if b < a]
+    assert not behind, f"{events_file.name}: events written out of clock order (line, earlier, later): {behind[:5]}"
 
 
 def assert_no_leftovers() -> None:
