@@ -242,8 +242,9 @@ class SdcService(MeasurementIntake):
 
     def _heartbeat(self, now: float) -> None:
         self.hb_seq += 1
+        # (the heartbeat thread: the main loop may add an instance meanwhile; list() copies at once)
         values = {"sdc_id": self.sdc_id, "seq": self.hb_seq,
-                  "n_instances": sum(i.active for i in self.instances.values()), "t_wall": now % 1e4}
+                  "n_instances": sum(i.active for i in list(self.instances.values())), "t_wall": now % 1e4}
         try:
             self.sock.sendto(wire.encode(wire.MsgType.HEARTBEAT, values, header=self._header(self.hb_seq, now)),
                              self.controller)
