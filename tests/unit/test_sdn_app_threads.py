@@ -1,0 +1,90 @@
+"""The os-ken shim takes one controller decision at a time.
+
+os-ken's default hub is "native": the app's timer and its OpenFlow event handlers run in separate OS
+threads. A tick that ran while a port-status handling was half done once saw a healed turbine
+half-restored and declared a second ``no_path`` for it (CI, stop 24). These tests run the real app
+class (no switches: its handlers are called directly, as os-ken's event loop calls them) with its
+real timer thread and check that the controller is never entered twice at once and that its events
+are taken one at a time.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from types import SimpleNamespace
+
+import pytest
+
+import sdn_app.app as app_module
+from sdvisc.config import write_config
+from tests.unit.test_sdn_logic import make_config
+
+
+class Overlap:
+    """Wraps the controller: every entry holds the GIL-free ``time.sleep`` for a moment, so two threads
+    inside at once are all but certain to be seen where nothing keeps them apart."""
+
+    def __init__(self, logic) -> None:
+        self.logic = logic
+        self.inside = 0
+        self.most = 0
+        self.calls = 0
+        self.guard = threading.Lock()
+
+    def _enter(self, fn, *args):
+        with self.guard:
+            self.inside += 1
+            self.most = max(self.most, self.inside)
+            self.calls += 1
+        try:
+            time.sleep(0.0005)
+            return fn(*args)
+        finally:
+            with self.guard:
+                self.inside -= 1
+
+    def tick(self, now):
+        return self._enter(self.logic.tick, now)
+
+    def port_status(self, dpid, port, up, now):
+        return self._enter(self.logic.port_status, dpid, port, up, now)
+
+    def __getattr__(self, name):
+        return getattr(self.logic, name)
+
+
+@pytest.fixture
+def app(tmp_path, monkeypatch):
+    cfg = make_config(state_dir=str(tmp_path))
+    monkeypatch.setenv(app_module.CONFIG_ENV, str(write_config(cfg, tmp_path / "sdn.json")))
+    monkeypatch.setattr(app_module, "STOPPING", False)
+    instance = app_module.SdviscApp()
+    yield instance
+    app_module.STOPPING = True
+    instance._timer.join(timeout=2.0)
+    instance.stop()
+
+
+def port_status_event(dpid: int, port: int, up: bool):
+    ofp = SimpleNamespace(OFPPS_LINK_DOWN=1, OFPPC_PORT_DOWN=1, OFPPR_DELETE=1)
+    desc = SimpleNamespace(port_no=port, state=0 if up else 1, config=0)
+    return SimpleNamespace(msg=SimpleNamespace(datapath=SimpleNamespace(id=dpid, ofproto=ofp), desc=desc, reason=2))
+
+
+def test_the_timer_and_a_handler_never_decide_at_once(app):
+    """Port-status events handled in the test's thread while the app's timer ticks in its own:
+    the controller is entered by one of them at a time."""
+    watch = Overlap(app.logic)
+    app.logic = watch
+    st = app.logic.logic.state
+    switch, port = next((n, p) for n, p in st.port_links if n in st.dpids)  # an OpenFlow switch's link port
+    dpid = st.dpids[switch]
+    deadline = time.monotonic() + 1.0
+    up = False
+    while time.monotonic() < deadline:
+        app._port_status(port_status_event(dpid, port, up))
+        up = not up
+    assert watch.calls > 100, "the handler and the timer both ran"
+    assert watch.most == 1, f"{watch.most} threads were inside the controller at once"
+
