@@ -2,10 +2,9 @@
 
 os-ken's default hub is "native": the app's timer and its OpenFlow event handlers run in separate OS
 threads. A tick that ran while a port-status handling was half done once saw a healed turbine
-half-restored and declared a second ``no_path`` for it (CI, stop 24). These tests run the real app
-class (no switches: its handlers are called directly, as os-ken's event loop calls them) with its
-real timer thread and check that the controller is never entered twice at once and that its events
-are taken one at a time.
+half-restored and declared a second ``no_path`` for it (CI, stop 24). This test runs the real app
+class (no switches: its handler is called directly, as os-ken's event loop calls it) with its real
+timer thread and checks that the controller is never entered by two threads at once.
 """
 
 from __future__ import annotations
