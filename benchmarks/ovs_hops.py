@@ -19,7 +19,9 @@ ovs-vswitchd's main thread, one main-loop iteration per hop), ``afxdp-nonpmd`` (
 the main thread), ``afxdp`` (AF_XDP polled by a PMD thread: busy polling; ``--pmd-maxsleep-us`` lets
 it sleep up to that long when idle, Open vSwitch's ``other_config:pmd-maxsleep``). Also printed:
 ovs-vswitchd's CPU per wall second during the measurement (a PMD thread spins a core).
-Prints one JSON object.
+``--links patch`` joins the bridges with Open vSwitch patch ports (Mininet's ``OVSLink``) instead of
+veths: a packet then crosses every bridge of the chain in one datapath pass, with no kernel device
+between bridges (the hosts' links stay veths of ``--port-type``). Prints one JSON object.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
+from mininet.link import Link, OVSLink  # noqa: E402
 from mininet.net import Mininet  # noqa: E402
 
 from benchmarks.ovs_latency import ofctl, ovs_cpu_s  # noqa: E402
@@ -83,15 +86,16 @@ print(json.dumps({"rtt_ms": rtt, "lost": lost}))
 """
 
 
-def chain(n_bridges: int, port_type: str, period_s: float, count: int) -> dict:
-    """Round trips h1 → s1 … sN → h2 → back, ``count`` of them, one every ``period_s``."""
+def chain(n_bridges: int, port_type: str, period_s: float, count: int, links: str = "veth") -> dict:
+    """Round trips h1 → s1 … sN → h2 → back, ``count`` of them, one every ``period_s``; bridges joined
+    by ``links`` (veth or patch)."""
     cleanup.clean()
     net = Mininet(switch=TestbedSwitch, controller=None, autoSetMacs=True, build=False)
     switches = [net.addSwitch(f"s{k}") for k in range(1, n_bridges + 1)]
     h1, h2 = net.addHost("h1"), net.addHost("h2")
     net.addLink(h1, switches[0])
     for a, b in zip(switches, switches[1:]):
-        net.addLink(a, b)
+        net.addLink(a, b, cls=OVSLink if links == "patch" else Link)
     net.addLink(switches[-1], h2)
     echo = None
     try:
@@ -102,7 +106,9 @@ def chain(n_bridges: int, port_type: str, period_s: float, count: int) -> dict:
             h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
         h1.setARP(h2.IP(), h2.MAC())
         h2.setARP(h1.IP(), h1.MAC())
-        ports_used = switch_ports.use(switch_ports.port_names(switches), port_type)
+        host_side = {i.name for h in (h1, h2) for i in (h.defaultIntf().link.intf1, h.defaultIntf().link.intf2)}
+        veths = [n for n in switch_ports.port_names(switches) if links == "veth" or n in host_side]
+        ports_used = switch_ports.use(veths, port_type)
         if ports_used.get("refused"):
             raise RuntimeError(f"Open vSwitch did not open the ports as {port_type}: {ports_used['refused']}")
         for sw in switches:  # one flow per direction: the port towards h1 <-> the port towards h2
@@ -120,7 +126,7 @@ def chain(n_bridges: int, port_type: str, period_s: float, count: int) -> dict:
         cpu = (ovs_cpu_s() - cpu0) / (time.time() - wall0)
         got = json.loads(out.strip().splitlines()[-1])
         rtt = np.array(got["rtt_ms"])
-        return {"bridges": n_bridges, "n": len(rtt), "lost": got["lost"],
+        return {"bridges": n_bridges, "links": links, "n": len(rtt), "lost": got["lost"],
                 "rtt_p50_ms": round(float(np.percentile(rtt, 50)), 4), "rtt_p99_ms": round(float(np.percentile(rtt, 99)), 4),
                 "ovs_cpu_per_wall_s": round(cpu, 3)}
     finally:
@@ -152,6 +158,7 @@ def main() -> None:
     ap.add_argument("--port-type", choices=PORT_TYPES, default="system")
     ap.add_argument("--period-ms", default="10,0.67", help="packet periods (comma-separated): idle and busy")
     ap.add_argument("--count", type=int, default=400)
+    ap.add_argument("--links", choices=("veth", "patch"), default="veth", help="how the bridges are joined")
     ap.add_argument("--pmd-maxsleep-us", type=int, default=None, help="with afxdp: other_config:pmd-maxsleep")
     args = ap.parse_args()
     if args.pmd_maxsleep_us is not None:
@@ -159,10 +166,11 @@ def main() -> None:
     try:
         result = {"benchmark": "ovs_hops", "machine": platform.platform(), "datapath": default_datapath(),
                   "ovs": subprocess.run(["ovs-vswitchd", "--version"], capture_output=True, text=True).stdout.splitlines()[0],
-                  "port_type": args.port_type, "pmd_maxsleep_us": args.pmd_maxsleep_us, "count": args.count,
+                  "port_type": args.port_type, "links": args.links, "pmd_maxsleep_us": args.pmd_maxsleep_us, "count": args.count,
                   "load_before": Path("/proc/loadavg").read_text().split()[:3], "periods": {}}
         for period_ms in (float(p) for p in args.period_ms.split(",")):
-            rows = [chain(int(n), args.port_type, period_ms / 1e3, args.count) for n in args.bridges.split(",")]
+            rows = [chain(int(n), args.port_type, period_ms / 1e3, args.count, args.links)
+                    for n in args.bridges.split(",")]
             result["periods"][f"{period_ms:g} ms"] = {
                 "chains": rows, "per_hop_one_way_p50_ms": per_hop(rows, "rtt_p50_ms"),
                 "per_hop_one_way_p99_ms": per_hop(rows, "rtt_p99_ms")}

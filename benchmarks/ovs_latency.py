@@ -46,6 +46,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 import numpy as np  # noqa: E402
+from mininet.link import Link, OVSLink  # noqa: E402
 from mininet.net import Mininet  # noqa: E402
 
 from scenarios import switch_ports  # noqa: E402
@@ -183,11 +184,45 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
         cleanup.clean()
 
 
-def measure_topology(topology: str, repeat: int = 20, params: dict | None = None) -> dict:
-    """``port_event_stall_ms`` and ``ff_port_down_ms`` on the testbed's ``topology`` (module docstring)."""
+class PatchLinks:
+    """Switch-to-switch links as Open vSwitch patch ports (``--links patch``). A patch port cannot be
+    set down (Open vSwitch ignores OFPPC_PORT_DOWN on it, and a missing peer leaves it LIVE), so a
+    link fails by deleting both ports and returns by adding them again, one ovs-vsctl transaction
+    each (which returns once ovs-vswitchd has applied it). ``set`` returns the wall time before the
+    command and records how long the command took (``took``)."""
+
+    def __init__(self) -> None:
+        self.took: list[float] = []
+
+    def set(self, a, b, up: bool) -> float:
+        cmd = ["ovs-vsctl"]
+        for end, peer in ((a, b), (b, a)):
+            if up:
+                cmd += ["--", "add-port", end.node.name, end.name, "--", "set", "Interface", end.name, "type=patch",
+                        f"options:peer={peer.name}", f"ofport_request={end.node.ports[end]}"]
+            else:
+                cmd += ["--", "del-port", end.node.name, end.name]
+        t = time.time()
+        subprocess.run(cmd, check=True, capture_output=True)
+        self.took.append((time.time() - t) * 1e3)
+        return t
+
+
+def measure_topology(topology: str, repeat: int = 20, params: dict | None = None, links: str = "veth") -> dict:
+    """``port_event_stall_ms`` and ``ff_port_down_ms`` on the testbed's ``topology`` (module docstring);
+    ``links="patch"``: switch-to-switch links as patch ports (:class:`PatchLinks`)."""
     params = params or {"paper": {"clusters": 5, "turbines": 2}, "farm": {"clusters": 5, "turbines": 10}}[topology]
     cleanup.clean()
-    net = Mininet(topo=topos[topology](**params), switch=TestbedSwitch, controller=None, build=False)
+    net = Mininet(topo=topos[topology](**params), switch=TestbedSwitch, controller=None, build=False,
+                  link=OVSLink if links == "patch" else Link)
+    patch = PatchLinks() if links == "patch" else None
+
+    def set_link(a, b, up: bool) -> float:
+        if patch is not None:
+            return patch.set(a, b, up)
+        t = set_link_up(a.name, up)
+        set_link_up(b.name, up)
+        return t
     procs, arrivals = [], []
     try:
         net.build()
@@ -216,9 +251,7 @@ def measure_topology(topology: str, repeat: int = 20, params: dict | None = None
             quiet.append(time.time())
             time.sleep(0.3)
             for up in (False, True):
-                t = set_link_up(a_end.name, up)
-                set_link_up(b_end.name, up)
-                events.append(t)
+                events.append(set_link(a_end, b_end, up))
                 time.sleep(0.3)
         time.sleep(0.2)
         period_ms = 1e3 / 1500
@@ -241,18 +274,17 @@ def measure_topology(topology: str, repeat: int = 20, params: dict | None = None
         ff = []
         for _ in range(repeat):
             time.sleep(0.3)
-            t_down = set_link_up(own_end.name, False)
-            set_link_up(far_end.name, False)
+            t_down = set_link(own_end, far_end, False)
             time.sleep(0.3)
             after = [t for t in list(arrivals[-1000:]) if t > t_down]
             ff.append((after[0] - t_down) * 1e3 if after else None)
-            set_link_up(own_end.name, True)
-            set_link_up(far_end.name, True)
+            set_link(own_end, far_end, True)
         return {"benchmark": "ovs_latency --topology", "topology": topology, "params": params,
                 "bridges": len(net.switches), "ports": sum(len(s.intfList()) - 1 for s in net.switches),
                 "link_toggled": [a_end.name, b_end.name], "stream_switch": switch.name, "repeat": repeat,
                 "port_event_stall_ms": stall, "baseline_pause_ms": baseline,
-                "ff_link": [own_end.name, far_end.name], "ff_port_down_ms": stats(ff)}
+                "ff_link": [own_end.name, far_end.name], "ff_port_down_ms": stats(ff), "links": links,
+                **({"link_command_ms": stats(patch.took)} if patch else {})}
     finally:
         for p in procs:
             p.kill()
@@ -276,10 +308,12 @@ def main() -> None:
     ap.add_argument("--topology", choices=("paper", "farm"),
                     help="instead: the port-event stall and fast failover on this testbed topology")
     ap.add_argument("--layout", choices=("compact", "tower"), default="compact", help="farm's layout (--topology farm)")
+    ap.add_argument("--links", choices=("veth", "patch"), default="veth",
+                    help="--topology: switch-to-switch links as veths (Mininet's default) or patch ports")
     args = ap.parse_args()
     if args.topology:
         params = {"clusters": 5, "turbines": 10, "layout": args.layout} if args.topology == "farm" else None
-        print(json.dumps(measure_topology(args.topology, args.repeat, params), indent=1))
+        print(json.dumps(measure_topology(args.topology, args.repeat, params, args.links), indent=1))
         return
     print(json.dumps(measure(args.repeat, args.load, args.port_type), indent=1))
 

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from scenarios.switch_links import SWITCH_LINK_KINDS
 from scenarios.switch_ports import SWITCH_PORT_TYPES
 
 DEFAULT_SCENARIO = Path(__file__).resolve().parent.parent / "scenarios" / "default.yaml"
@@ -56,6 +57,8 @@ def _cmd_run(args) -> int:
         scenario.time_scale = args.time_scale
     if args.switch_ports is not None:
         scenario.switch_ports = args.switch_ports
+    if args.switch_links is not None:
+        scenario.switch_links = args.switch_links
     problem = _session_options(args, scenario)
     if args.calibrate_from is not None:
         from scenarios.calibrate import CANDIDATES
@@ -184,6 +187,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default=None,
                    help="the switch side of every link (overrides the scenario's switch_ports): system, or AF_XDP "
                         "(afxdp: a PMD thread spins one core, hops ~10x cheaper; falls back to system where refused)")
+    p.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default=None,
+                   help="how switches are joined (overrides the scenario's switch_links): veth pairs, or patch ports "
+                        "(every bridge of a path in one datapath pass; a failed link is removed)")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
     p.add_argument("files", nargs="+")

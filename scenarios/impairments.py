@@ -108,7 +108,8 @@ class Impairments:
     def __init__(self, scenario: Scenario, out: Path) -> None:
         self.scenario = scenario
         self.out = Path(out)
-        self.mechanism = mechanism() if self._wanted() else None
+        # patch links have no kernel device for netem: an impaired link gets an element (veths) there
+        self.mechanism = ("element" if scenario.switch_links == "patch" else mechanism()) if self._wanted() else None
         self.initial = {_pair(lk.a, lk.b): Impairment(lk.delay_ms, lk.jitter_ms, lk.loss, lk.bw_mbps)
                         for lk in scenario.links}
         self.seeds = {_pair(lk.a, lk.b): lk.seed for lk in scenario.links}

@@ -18,7 +18,7 @@ import threading
 import time
 from pathlib import Path
 
-from scenarios import configs, switch_ports
+from scenarios import configs, switch_links, switch_ports
 from scenarios.calibrate import Calibration, calibration_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
@@ -108,6 +108,7 @@ class Run:
             print(text, flush=True)
 
     def build(self) -> None:
+        from mininet.link import Link, OVSLink
         from mininet.log import setLogLevel
         from mininet.net import Mininet
 
@@ -121,7 +122,7 @@ class Run:
         self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
         self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
-                           waitConnected=False)
+                           waitConnected=False, link=OVSLink if sc.switch_links == "patch" else Link)
         self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=ports[0])
         if sc.sdn.redundancy:
             self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=ports[1])
@@ -131,7 +132,8 @@ class Run:
         self.net.start()
         phase("switches_start")
         mark_switches(self.net.switches)
-        self.switch_ports = switch_ports.use(switch_ports.port_names(self.net.switches), sc.switch_ports)
+        veths = [i.name for sw in self.net.switches for i in sw.intfList() if i.name != "lo" and not switch_links.is_patch(i)]
+        self.switch_ports = switch_ports.use(veths, sc.switch_ports)
         if self.switch_ports.get("refused"):
             self._say(f"sdvisc: {sc.switch_ports} switch ports refused ({self.switch_ports['refused']}): using system ports")
         phase("switch_ports")
@@ -279,6 +281,13 @@ class Run:
             self.links_down.discard(tuple(sorted((a, b))))
         else:
             self.links_down.add(tuple(sorted((a, b))))
+        if all(switch_links.is_patch(intf) for intf in ends):  # removed and restored (scenarios/switch_links.py)
+            t = time.time()
+            try:
+                switch_links.set_patch_link(ends, up)
+            except OSError as exc:
+                raise RunError(f"cannot set the patch link {a}-{b} {state}: {exc}") from exc
+            return self.clock.from_wall(t)
         t_first = None
         for intf in ends:
             pid = None if intf.node in self.net.switches else intf.node.pid  # switch ends: root namespace

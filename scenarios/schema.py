@@ -330,6 +330,9 @@ class Scenario(Strict):
     switch_ports: Literal["system", "afxdp", "afxdp-nonpmd"] = Field(
         "system", description="the switch side of every link: system (AF_PACKET, ovs-vswitchd's main thread) or "
                               "AF_XDP (afxdp: a PMD thread spinning one core, ~10x cheaper hops; scenarios/switch_ports.py)")
+    switch_links: Literal["veth", "patch"] = Field(
+        "veth", description="how switches are joined: veth pairs, or Open vSwitch patch ports (one datapath pass "
+                            "across every bridge; a failed link is removed; scenarios/switch_links.py)")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)

@@ -324,6 +324,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "sdc": {s: {"role": d.get("role"), "heartbeats_tx": d.get("heartbeats_tx")} for s, d in sdcs.items()},
         "impairments": impairments_section(run),
         "switch_ports": getattr(run, "switch_ports", None) or None,  # scenarios.switch_ports.use
+        "switch_links": run.scenario.switch_links,  # scenarios.switch_links
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
     }
