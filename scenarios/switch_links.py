@@ -18,25 +18,36 @@ from __future__ import annotations
 
 import subprocess
 
+from mininet.link import OVSIntf
+
 SWITCH_LINK_KINDS = ("veth", "patch")
 
 
 def is_patch(intf) -> bool:
     """True for the end of a patch link (Mininet's ``OVSIntf``)."""
-    return type(intf).__name__ == "OVSIntf"
+    return isinstance(intf, OVSIntf)
 
 
-def set_patch_link(ends: list, up: bool) -> None:
-    """Remove (``up`` False) or restore the patch link whose two ends are ``ends`` (Mininet
-    interfaces of two OVS switches), in one ovs-vsctl transaction; raises OSError if it fails."""
+def patch_link_command(ends: list, up: bool) -> list[str]:
+    """The one ovs-vsctl transaction that removes (``up`` False) or restores the patch link whose two
+    ends are ``ends`` (Mininet interfaces of two OVS switches: ``name``, ``node.name``,
+    ``node.ports[end]`` its OpenFlow port number, kept when the port returns)."""
     a, b = ends
     cmd = ["ovs-vsctl"]
     for end, peer in ((a, b), (b, a)):
+        if len(cmd) > 1:
+            cmd.append("--")
         if up:
             cmd += ["--may-exist", "add-port", end.node.name, end.name, "--", "set", "Interface", end.name,
-                    "type=patch", f"options:peer={peer.name}", f"ofport_request={end.node.ports[end]}", "--"]
+                    "type=patch", f"options:peer={peer.name}", f"ofport_request={end.node.ports[end]}"]
         else:
-            cmd += ["--if-exists", "del-port", end.node.name, end.name, "--"]
-    res = subprocess.run(cmd[:-1], capture_output=True, text=True, check=False)
+            cmd += ["--if-exists", "del-port", end.node.name, end.name]
+    return cmd
+
+
+def set_patch_link(ends: list, up: bool) -> None:
+    """Run :func:`patch_link_command`; raises OSError if Open vSwitch refuses it."""
+    cmd = patch_link_command(ends, up)
+    res = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if res.returncode != 0:
-        raise OSError(f"{' '.join(cmd[:-1])}: {res.stderr.strip()}")
+        raise OSError(f"{' '.join(cmd)}: {res.stderr.strip()}")
