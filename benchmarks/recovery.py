@@ -50,6 +50,7 @@ from scenario_runs import ROOT, run_file  # benchmarks/scenario_runs.py
 from scenario_runs import run_dict as run
 
 from scenarios.interruptions import aggregate
+from scenarios.switch_links import SWITCH_LINK_KINDS
 from scenarios.switch_ports import SWITCH_PORT_TYPES
 from topologies import topos
 from topologies.base import describe
@@ -204,6 +205,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--time-scale", default="1", help="K or auto: run the scenarios in virtual time")
     parser.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default="system",
                         help="the switch side of every link in the runs and in the floor (scenarios/switch_ports.py)")
+    parser.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default="veth",
+                        help="switch-to-switch links in the runs and the topology floor (scenarios/switch_links.py)")
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
     parser.add_argument("--all-links", action="store_true",
                         help="only the sweep: every single-link failure of paper, farm compact and farm tower, "
@@ -225,7 +228,7 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     work = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="sdvisc-recovery-"))
     work.mkdir(parents=True, exist_ok=True)
-    scale = ("--time-scale", args.time_scale, "--switch-ports", args.switch_ports)
+    scale = ("--time-scale", args.time_scale, "--switch-ports", args.switch_ports, "--switch-links", args.switch_links)
     started = time.time()
     if args.all_links:
         load_before = os.getloadavg()
@@ -248,11 +251,11 @@ def main(argv: list[str] | None = None) -> int:
     # the same Open vSwitch on each run's own topology (its bridges and ports, no other traffic): fast
     # failover there, and the pause any link event causes on a stream it does not cross (system ports)
     topology_floor = ({t: ovs_latency.measure_topology(topo["name"], args.floor_repeat,
-                                                       {k: v for k, v in topo.items() if k != "name"})
+                                                       {k: v for k, v in topo.items() if k != "name"}, args.switch_links)
                        for t, (topo, _) in TOPOLOGIES.items()}
                       if args.floor_repeat and args.failures > 0 and args.switch_ports == "system" else {})
     result: dict = {"benchmark": "recovery", "failures_per_run": args.failures, "time_scale": args.time_scale,
-                    "switch_ports": args.switch_ports,
+                    "switch_ports": args.switch_ports, "switch_links": args.switch_links,
                     "units": "ms (simulated ms at a time scale above 1; the floor is wall ms)", "floor": floor,
                     "topology_floor": topology_floor,
                     "runs": {}}
