@@ -106,9 +106,7 @@ def chain(n_bridges: int, port_type: str, period_s: float, count: int, links: st
             h.cmd(f"ethtool -K {h.defaultIntf().name} tx off")
         h1.setARP(h2.IP(), h2.MAC())
         h2.setARP(h1.IP(), h1.MAC())
-        host_side = {i.name for h in (h1, h2) for i in (h.defaultIntf().link.intf1, h.defaultIntf().link.intf2)}
-        veths = [n for n in switch_ports.port_names(switches) if links == "veth" or n in host_side]
-        ports_used = switch_ports.use(veths, port_type)
+        ports_used = switch_ports.use(switch_ports.port_names(switches), port_type)
         if ports_used.get("refused"):
             raise RuntimeError(f"Open vSwitch did not open the ports as {port_type}: {ports_used['refused']}")
         for sw in switches:  # one flow per direction: the port towards h1 <-> the port towards h2

@@ -50,6 +50,7 @@ from mininet.link import Link, OVSLink  # noqa: E402
 from mininet.net import Mininet  # noqa: E402
 
 from scenarios import switch_ports  # noqa: E402
+from scenarios.switch_links import set_patch_link  # noqa: E402
 from scenarios.switch_ports import SWITCH_PORT_TYPES  # noqa: E402
 from sdvisc import cleanup  # noqa: E402
 from sdvisc.netns import set_link_up  # noqa: E402
@@ -185,25 +186,17 @@ def measure(repeat: int = 20, load: int = 0, port_type: str = "system") -> dict:
 
 
 class PatchLinks:
-    """Switch-to-switch links as Open vSwitch patch ports (``--links patch``). A patch port cannot be
-    set down (Open vSwitch ignores OFPPC_PORT_DOWN on it, and a missing peer leaves it LIVE), so a
-    link fails by deleting both ports and returns by adding them again, one ovs-vsctl transaction
-    each (which returns once ovs-vswitchd has applied it). ``set`` returns the wall time before the
-    command and records how long the command took (``took``)."""
+    """Switch-to-switch links as Open vSwitch patch ports (``--links patch``): a link fails and returns
+    as in a run (:func:`scenarios.switch_links.set_patch_link`, one ovs-vsctl transaction that returns
+    once ovs-vswitchd has applied it). ``set`` returns the wall time before the command and records how
+    long the command took (``took``)."""
 
     def __init__(self) -> None:
         self.took: list[float] = []
 
     def set(self, a, b, up: bool) -> float:
-        cmd = ["ovs-vsctl"]
-        for end, peer in ((a, b), (b, a)):
-            if up:
-                cmd += ["--", "add-port", end.node.name, end.name, "--", "set", "Interface", end.name, "type=patch",
-                        f"options:peer={peer.name}", f"ofport_request={end.node.ports[end]}"]
-            else:
-                cmd += ["--", "del-port", end.node.name, end.name]
         t = time.time()
-        subprocess.run(cmd, check=True, capture_output=True)
+        set_patch_link([a, b], up)
         self.took.append((time.time() - t) * 1e3)
         return t
 

@@ -132,8 +132,7 @@ class Run:
         self.net.start()
         phase("switches_start")
         mark_switches(self.net.switches)
-        veths = [i.name for sw in self.net.switches for i in sw.intfList() if i.name != "lo" and not switch_links.is_patch(i)]
-        self.switch_ports = switch_ports.use(veths, sc.switch_ports)
+        self.switch_ports = switch_ports.use(switch_ports.port_names(self.net.switches), sc.switch_ports)
         if self.switch_ports.get("refused"):
             self._say(f"sdvisc: {sc.switch_ports} switch ports refused ({self.switch_ports['refused']}): using system ports")
         phase("switch_ports")

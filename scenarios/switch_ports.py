@@ -20,13 +20,16 @@ import json
 import subprocess
 import time
 
+from scenarios.switch_links import is_patch
+
 SWITCH_PORT_TYPES = ("system", "afxdp", "afxdp-nonpmd")
 READY_TIMEOUT_S = 60.0
 
 
 def port_names(switches) -> list[str]:
-    """The switch side of every link of ``switches`` (Mininet switch nodes)."""
-    return [intf.name for sw in switches for intf in sw.intfList() if intf.name != "lo"]
+    """The switch side of every veth of ``switches`` (Mininet switch nodes; a patch link's ends are
+    no kernel device, :mod:`scenarios.switch_links`)."""
+    return [intf.name for sw in switches for intf in sw.intfList() if intf.name != "lo" and not is_patch(intf)]
 
 
 def set_type_command(names: list[str], kind: str) -> list[str]:

@@ -7,6 +7,7 @@ counters and events to the state directory for the runner, the CLI and users.
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import socket
@@ -113,13 +114,15 @@ class SdviscApp(app_manager.OSKenApp):
 
     def _publish(self, final: bool = False) -> None:
         """Hand the state to the writer: compact JSON while running (json's C encoder; the indented
-        form takes its pure-Python encoder, ~1 ms per state on the event loop), indented at the end."""
+        form takes its pure-Python encoder, ~1 ms per state on the event loop), indented at the end
+        (``final``: from :meth:`stop`, which has taken the lock or given up waiting for it)."""
         if not self.state_dir or self._state_writer is None:  # (None: stopped, the last state written)
             return
-        state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
-                 "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
-                 "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
-                 "t_wall": self.clock.now()}
+        with self._lock if not final else contextlib.nullcontext():  # a consistent snapshot; encoding needs no lock
+            state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
+                     "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
+                     "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
+                     "t_wall": self.clock.now()}
         layout = {"indent": 1} if final else {"separators": (",", ":")}
         self._state_writer.put(json.dumps(state, sort_keys=True, **layout).encode())
 
@@ -168,9 +171,9 @@ class SdviscApp(app_manager.OSKenApp):
                 now = self.clock.now()
                 self._peer(now)
                 self._send(self.logic.tick(now))
-                if now - self._last_publish >= PUBLISH_S:
-                    self._last_publish = now
-                    self._publish()
+            if now - self._last_publish >= PUBLISH_S:  # (only this thread reads or sets _last_publish)
+                self._last_publish = now
+                self._publish()
             hub.sleep(self.clock.wall_s(TICK_S))
 
     def stop(self):
