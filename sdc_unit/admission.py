@@ -92,9 +92,15 @@ def out_of_range_flags(rows: np.ndarray) -> list[bool]:
     six numpy calls are most of the check's cost, ~20 µs on a service's cold caches)."""
     if rows.shape[1] > SMALL_BATCH:
         return out_of_range_matrix(rows).tolist()
-    beyond = MEAS_ABS_MAX_PU.__lt__  # |x| > the limit (False for NaN, as in numpy)
-    return [t_sim < 0.0 or t_sim > T_SIM_MAX_S or any(map(beyond, map(abs, values)))
-            for t_sim, *values in zip(*rows.tolist())]
+    return [values_out_of_range(t_sim, values) for t_sim, *values in zip(*rows.tolist())]
+
+
+_BEYOND = MEAS_ABS_MAX_PU.__lt__  # |x| > the limit (False for NaN, as in numpy)
+
+
+def values_out_of_range(t_sim: float, values) -> bool:
+    """:func:`meas_out_of_range` of one MEAS given as plain floats: its ``t_sim`` and MEAS_FIELDS."""
+    return t_sim < 0.0 or t_sim > T_SIM_MAX_S or any(map(_BEYOND, map(abs, values)))
 
 
 def bad_params(values: dict) -> list[str]:

@@ -18,6 +18,7 @@ import numpy as np
 from sdc_unit.blocks import METHODS as VISC_METHODS
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
+from sdvisc import wire
 from sdvisc.vocabulary import CTRL_OUTPUTS, FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS, params_from_mask
 
 METHODS = VISC_METHODS + ("hold",)
@@ -43,6 +44,8 @@ class ControllerBank:
         if method in VISC_METHODS:
             self.visc = DiscreteVisc(capacity, ViscParams(), ts=step_s, method=method,
                                      dtype=np.float32 if dtype == "float32" else np.float64)
+        self.one_datagram = self.visc is not None and hasattr(self.visc.engine, "meas_to_ctrl")
+        """True where :meth:`meas_to_ctrl` is available (the compiled Tustin engine)."""
 
     def warm_up(self, steps: int = 50) -> None:
         """Run every code path once on the last slot with a synthetic operating point, then reset
@@ -54,6 +57,11 @@ class ControllerBank:
         for _ in range(steps):
             self.step(np.array([slot]), meas)
         self.track(np.array([slot]), meas)
+        if self.answers_one(slot):
+            out = np.zeros(64, dtype=np.uint8)
+            for header in (wire.Header(1, 0, 0), None):
+                data = wire.encode(wire.MsgType.MEAS, {"wt": 101, "seq": 1, "t_sim": 0.0, **op}, header=header)
+                self.meas_to_ctrl(slot, data, header is not None, out, 101, 1, 1, 0, 0, 0)
         self.stop(slot)
 
     def start(self, slot: int, params: dict) -> None:
@@ -131,6 +139,20 @@ class ControllerBank:
             out["limited"] = np.zeros(len(slots), dtype=bool)
             return out, usable
         return self._step_visc(slots, rows, usable, used, all_usable)
+
+    def answers_one(self, slot: int) -> bool:
+        """True if :meth:`meas_to_ctrl` applies to ``slot``: a compiled engine, the slot started and
+        initialised from a first measurement (otherwise :meth:`step`)."""
+        return self.one_datagram and self.started[slot] and self.initialised[slot]
+
+    def meas_to_ctrl(self, slot: int, data: bytes, with_header: bool, out: np.ndarray, wt: int, ctrl_seq: int,
+                     meas_seq: int, flag_bits: int, hdr_sec: int, hdr_nsec: int) -> int:
+        """Advance ``slot`` (:meth:`answers_one`) on one admitted MEAS datagram and write its CTRL
+        datagram into ``out``, in one compiled call; returns :mod:`sdc_unit.ctrl_jit`'s code."""
+        code = self.visc.engine.meas_to_ctrl(slot, data, with_header, out, wt, ctrl_seq, meas_seq, flag_bits,
+                                             hdr_sec, hdr_nsec)
+        self.visc.k += 1
+        return code
 
     def _step_visc(self, slots, rows, usable, used, all_usable):
         visc = self.visc

@@ -5,16 +5,21 @@ service's socket, instances, counters and clock); nothing here raises on a bad d
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from sdc_unit import admission
 from sdc_unit.gather import gather
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS
-from sdvisc.wire_batch import decode_batch, float_rows, is_type
+from sdvisc.wire_batch import SMALL_BATCH, decode_batch, float_rows, is_type
 
 MAX_RESUMED = 10_000
 """Losses of MEAS recorded per turbine (``meas_resumed``: the first MEAS after each, by its send time)."""
+ONE_BY_ONE_MAX = SMALL_BATCH
+"""Up to this many datagrams read at once, each MEAS is answered on its own
+(:meth:`MeasurementIntake._answer_at_once`); more go through the vectorised batch path."""
 STREAMING_STEPS = 4
 """A turbine whose last measurement (admitted, or tracked by a backup) was read within this many
 sampling periods counts as streaming: its MEAS is expected in every sample."""
@@ -70,8 +75,17 @@ class MeasurementIntake:
         meas_data: list[bytes] = []
         meas_addr: list[tuple] = []
         meas_read: list[float] = []
+        one_by_one = self.bank.one_datagram and len(datagrams) <= ONE_BY_ONE_MAX
         for k, (data, addr) in enumerate(datagrams):
             if is_type(data, wire.MsgType.MEAS, self.header):
+                if one_by_one:
+                    try:
+                        if self._answer_at_once(data, addr, read_at[k] if read_at is not None else now, now):
+                            continue
+                    except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
+                        self._internal_error("measurement", exc)
+                        continue
+                    one_by_one = False  # the rest of the batch after it, in order
                 meas_data.append(data)
                 meas_addr.append(addr)
                 meas_read.append(read_at[k] if read_at is not None else now)
@@ -118,9 +132,7 @@ class MeasurementIntake:
                 self._reject("out_of_range", inst, "meas_rejected")
                 continue
             previous = inst.gate.last_seq
-            verdict = inst.gate.admit(seq, t_sim)
-            if verdict is not None:
-                self._reject(verdict, inst, "meas_stale" if verdict == "stale" else "meas_rejected")
+            if not self._gate(inst, seq, t_sim):
                 continue
             if not inst.active:
                 if self.role == "backup":  # warm standby on mirrored measurements: follow, never answer
@@ -132,15 +144,50 @@ class MeasurementIntake:
                 else:
                     self._reject("inactive", inst, "meas_inactive")
                 continue
-            if previous >= 0 and seq > previous + 1:
-                inst.counts["meas_lost"] += seq - previous - 1
-                if self.header and len(inst.meas_resumed) < MAX_RESUMED:  # when the path delivered again
-                    inst.meas_resumed.append([round(row[0] + row[1] * 1e-9, 6), seq - previous - 1])
-            if self.header and len(inst.meas_delays_ms) < 200_000:
-                inst.meas_delays_ms.append((meas_read[sources[j]] - (row[0] + row[1] * 1e-9)) * 1e3)
-            inst.counts["meas_rx"] += 1
-            inst.last_meas_at = meas_read[sources[j]]
-            if inst.first_meas_rx_t is None:
-                inst.first_meas_rx_t = t_sim
+            self._count_usable(inst, previous, seq, t_sim, row[0] + row[1] * 1e-9 if self.header else None,
+                               meas_read[sources[j]])
             batch.setdefault(wid, []).append((j, meas_addr[sources[j]]))
         return batch
+
+    def _gate(self, inst, seq: int, t_sim: float) -> bool:
+        """The turbine's sequence gate (:class:`sdc_unit.admission.SeqGate`); a drop is counted."""
+        verdict = inst.gate.admit(seq, t_sim)
+        if verdict is not None:
+            self._reject(verdict, inst, "meas_stale" if verdict == "stale" else "meas_rejected")
+        return verdict is None
+
+    @staticmethod
+    def _count_usable(inst, previous: int, seq: int, t_sim: float, sent: float | None, read_t: float) -> None:
+        """The bookkeeping of a MEAS that will be answered: samples lost before it (and where the
+        stream resumed), its one-way delay (``sent``: its header's time, None without header)."""
+        if previous >= 0 and seq > previous + 1:
+            inst.counts["meas_lost"] += seq - previous - 1
+            if sent is not None and len(inst.meas_resumed) < MAX_RESUMED:  # when the path delivered again
+                inst.meas_resumed.append([round(sent, 6), seq - previous - 1])
+        if sent is not None and len(inst.meas_delays_ms) < 200_000:
+            inst.meas_delays_ms.append((read_t - sent) * 1e3)
+        inst.counts["meas_rx"] += 1
+        inst.last_meas_at = read_t
+        if inst.first_meas_rx_t is None:
+            inst.first_meas_rx_t = t_sim
+
+    def _answer_at_once(self, data: bytes, addr: tuple, read_t: float, now: float) -> bool:
+        """A MEAS (right length and type) of a turbine whose controller is running, admitted and
+        answered on its own (:meth:`sdc_unit.bank.ControllerBank.meas_to_ctrl`: one compiled call
+        steps it and writes the CTRL) with the checks, counts and order of the batch path. False,
+        with nothing changed, where it needs the batch path: an unknown, inactive or not yet
+        initialised turbine, a non-finite or out-of-range value."""
+        words = self._meas_words(data)
+        wid, seq, t_sim = words[self._wt_at:self._wt_at + 3]
+        inst = self.instances.get(wid)
+        if inst is None or not inst.active or not self.bank.answers_one(inst.slot):
+            return False
+        values = words[self._wt_at + 3:]
+        if not math.isfinite(t_sim + sum(values)) or admission.values_out_of_range(t_sim, values):
+            return False
+        self.rx_stats.ok += 1
+        previous = inst.gate.last_seq
+        if self._gate(inst, seq, t_sim):
+            self._count_usable(inst, previous, seq, t_sim, words[1] + words[2] * 1e-9 if self.header else None, read_t)
+            self._answer_one(inst, data, seq, addr, now)
+        return True

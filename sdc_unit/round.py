@@ -44,15 +44,18 @@ def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray, backup
     return valid, ctrl
 
 
+def header_time(now: float) -> tuple[int, int]:
+    """The (sec, nsec) words of a CTRL header stamped ``now`` (s)."""
+    sec = int(now)
+    return sec, int((now - sec) * 1e9)
+
+
 def pack_ctrl(ctrl: dict[str, np.ndarray], seqs: np.ndarray, now: float | None) -> list[bytes | None]:
     """The CTRL datagrams of :func:`step_round`'s ``ctrl`` numbered ``seqs``, with the VILLAS header
     stamped ``now`` (wall time, s; None: no header). Packed in one batch; a row with a value beyond
     float32 is None and the others are packed row by row."""
     cols = {**ctrl, "seq": seqs}
-    header = None
-    if now is not None:
-        sec = int(now)
-        header = (seqs, sec, int((now - sec) * 1e9))
+    header = None if now is None else (seqs, *header_time(now))
     try:
         return encode_batch(wire.MsgType.CTRL, cols, header=header)
     except wire.WireError:

@@ -49,9 +49,10 @@ import numpy as np
 
 from sdc_unit import admission
 from sdc_unit.admission import SeqGate
+from sdc_unit.answer import NOT_STEPPED, UNENCODABLE, ctrl_bytes
 from sdc_unit.bank import ControllerBank
 from sdc_unit.intake import MeasurementIntake
-from sdc_unit.round import pack_ctrl, step_round
+from sdc_unit.round import FLAG_BACKUP, header_time, pack_ctrl, step_round
 from sdvisc import wire
 from sdvisc.config import ConfigError, SdcConfig, load_config
 from sdvisc.jsonlines import write_json_atomic
@@ -99,6 +100,9 @@ class SdcService(MeasurementIntake):
         self.instances: dict[int, Instance] = {}
         self.bank = ControllerBank(capacity=cfg.capacity + 1, step_s=cfg.step_s, method=cfg.method, dtype=cfg.dtype)
         self.rx_stats = wire.DecodeStats()
+        self._meas_words = wire.packer(wire.MsgType.MEAS, header=self.header).unpack  # the one-datagram path's
+        self._wt_at = (wire.HEADER_WORDS if self.header else 0) + 1  # MEAS word of wt (seq, t_sim, values follow)
+        self._ctrl_out = np.zeros(ctrl_bytes(self.header), dtype=np.uint8)
         self.rx_records = np.zeros(0, dtype=record_dtype(wire.MsgType.MEAS, self.header))
         self.rx_rows = np.zeros((len(admission.CHECKED_ROWS), 0))  # their checked values (float_rows)
         self.hb_seq = 0
@@ -239,6 +243,25 @@ class SdcService(MeasurementIntake):
                 inst.counts["ctrl_tx"] += 1
             except OSError:
                 inst.counts["ctrl_tx_error"] = inst.counts.get("ctrl_tx_error", 0) + 1
+
+    def _answer_one(self, inst: Instance, data: bytes, meas_seq: int, addr: tuple, now: float) -> None:
+        """Step ``inst`` on one admitted MEAS datagram and send its CTRL (the one-datagram path of
+        :meth:`receive`; counted as :meth:`_serve_round` counts)."""
+        sec, nsec = header_time(self.clock.now() if self.gather_wall_s > 0 else now) if self.header else (0, 0)
+        code = self.bank.meas_to_ctrl(inst.slot, data, self.header, self._ctrl_out, inst.wid, inst.ctrl_seq + 1,
+                                      meas_seq, FLAG_BACKUP if self.role == "backup" else 0, sec, nsec)
+        if code == NOT_STEPPED:
+            inst.counts["ctrl_invalid"] += 1
+            return
+        inst.ctrl_seq += 1
+        if code == UNENCODABLE:
+            inst.counts["ctrl_invalid"] += 1
+            return
+        try:
+            self.sock.sendto(self._ctrl_out, (addr[0], wire.PORT_TURBINE))
+            inst.counts["ctrl_tx"] += 1
+        except OSError:
+            inst.counts["ctrl_tx_error"] = inst.counts.get("ctrl_tx_error", 0) + 1
 
     def _heartbeat(self, now: float) -> None:
         self.hb_seq += 1
