@@ -28,6 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from plant import endpoint_rx
+from plant.endpoint_tx import MeasPacker
 from plant.live import STATUS_EVERY_S, LivePublisher
 from plant.recorder import Recorder
 from plant.service_model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
@@ -105,6 +106,7 @@ class PlantService:
         self.by_fd = {ep.sock.fileno(): ep for ep in self.endpoints}
         self.streaming: list[Endpoint] = []  # the endpoints streaming, in endpoint order (kept by _on_request)
         self.rx_stats = wire.DecodeStats()
+        self.meas_packer = MeasPacker(self.header)
         self.check_rx_source = cfg.check_rx_source  # see plant.endpoint_rx
         self.late_steps = 0
         self.stalls: list[list] = []  # [t_sim at the start, worst lateness ms, last step] of each stall > 10 ms
@@ -159,8 +161,9 @@ class PlantService:
                     endpoint_rx.count_internal(ep.counts, error)
         if newest:
             index = np.fromiter(newest, dtype=np.intp, count=len(newest))
-            field = {k: np.array([m[k] for m in newest.values()]) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q")}
-            self.model.apply_remote(index, field["v_ref_d"], field["v_ref_q"], field["i_ref_d"], field["i_ref_q"])
+            refs = np.array([[m["v_ref_d"], m["v_ref_q"], m["i_ref_d"], m["i_ref_q"]] for m in newest.values()],
+                            dtype=np.float64).T.copy()  # one contiguous row per reference
+            self.model.apply_remote(index, refs[0], refs[1], refs[2], refs[3])
 
     def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
         """Account for one CTRL that :func:`plant.endpoint_rx.receive` accepted (the newest so far)."""
@@ -244,20 +247,22 @@ class PlantService:
         sec = int(now)
         nsec = int((now - sec) * 1e9)
         send_ak = self.k % self.ak_every == 0
+        pack = self.meas_packer.pack
         for ep in streaming:
             i = ep.index
             ep.meas_seq += 1
-            values = {"wt": ep.wid, "seq": ep.meas_seq, "t_sim": t_sim,
-                      **dict(zip(MEAS_FIELDS, [float(column[i]) for column in columns]))}
-            hdr = wire.Header(ep.meas_seq, sec, nsec) if self.header else None
-            try:
-                ep.sock.sendto(wire.encode(wire.MsgType.MEAS, values, header=hdr), ep.sdc_addr)
-                ep.counts["meas_tx"] += 1
-                if ep.first_meas_tx_t is None:
-                    ep.first_meas_tx_t = t_sim
-            except OSError:
-                ep.counts.setdefault("meas_tx_error", 0)
-                ep.counts["meas_tx_error"] += 1
+            data = pack(ep.wid, ep.meas_seq, t_sim, [float(column[i]) for column in columns], sec, nsec)
+            if data is None:  # a value the wire cannot carry (the model diverged): counted, not sent
+                ep.counts["meas_unencodable"] = ep.counts.get("meas_unencodable", 0) + 1
+            else:
+                try:
+                    ep.sock.sendto(data, ep.sdc_addr)
+                    ep.counts["meas_tx"] += 1
+                    if ep.first_meas_tx_t is None:
+                        ep.first_meas_tx_t = t_sim
+                except OSError:
+                    ep.counts.setdefault("meas_tx_error", 0)
+                    ep.counts["meas_tx_error"] += 1
             ak_now = int(now - ep.last_ctrl_wall <= self.ak_window_s)
             # the moment a loss has lasted the SDN app's DR hold, the turbine says so at once (the
             # app confirms DR on the turbine's own report, not on a guess from missing AKs)
