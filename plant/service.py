@@ -11,7 +11,8 @@ after the model's loss time), and reports ``AK`` (1 when a ``CTRL`` arrived with
 (``{"type": "stop"}`` ends the run; without ``duration_s`` the plant runs until then). While it runs
 it publishes its status and events (:mod:`plant.live`).
 Malformed, unexpected or implausible packets are dropped and counted by reason, never applied
-(:mod:`plant.endpoint_rx`).
+(:mod:`plant.endpoint_rx`); a MEAS the wire cannot carry (a non-finite value of a diverged model)
+is counted (``meas_unencodable``) and not sent (:mod:`plant.endpoint_tx`).
 """
 
 from __future__ import annotations
