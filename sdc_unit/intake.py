@@ -13,13 +13,15 @@ from sdc_unit import admission
 from sdc_unit.gather import gather
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS
-from sdvisc.wire_batch import SMALL_BATCH, decode_batch, float_rows, is_type
+from sdvisc.wire_batch import decode_batch, float_rows, is_type
 
 MAX_RESUMED = 10_000
 """Losses of MEAS recorded per turbine (``meas_resumed``: the first MEAS after each, by its send time)."""
-ONE_BY_ONE_MAX = SMALL_BATCH
+ONE_BY_ONE_MAX = 24
 """Up to this many datagrams read at once, each MEAS is answered on its own
-(:meth:`MeasurementIntake._answer_at_once`); more go through the vectorised batch path."""
+(:meth:`MeasurementIntake._answer_at_once`); more go through the vectorised batch path. Measured
+(``benchmarks/sdc_round_cost.py --modes batch --gap-ms 0.67``, a round on cold caches): one by one
+is cheaper up to ~24 MEAS per wake-up (16: ~165 against ~278 µs), equal at 32, dearer at 50."""
 STREAMING_STEPS = 4
 """A turbine whose last measurement (admitted, or tracked by a backup) was read within this many
 sampling periods counts as streaming: its MEAS is expected in every sample."""
