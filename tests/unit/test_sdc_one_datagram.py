@@ -1,7 +1,8 @@
 """The SDC's one-datagram path (sdc_unit.ctrl_jit via ControllerBank.meas_to_ctrl and the service's
 receive) against its reference, the batch path (decode_batch, step_round, pack_ctrl): the same CTRL
-bytes and the same counts for the same datagrams, good and bad. Real loopback UDP sockets; the
-reference is the same service with the one-datagram path switched off."""
+bytes and the same counts for the same datagrams, good and bad. The datagrams are handed to the
+service's ``receive`` and what it sends is recorded (the socket calls are test_sdc_gather.py's and
+test_sdc_service_udp.py's); the reference is the same service with the one-datagram path switched off."""
 
 from __future__ import annotations
 
