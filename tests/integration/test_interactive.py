@@ -239,14 +239,17 @@ def test_live_view_in_chromium_shows_the_path_then_the_failed_link(tmp_path, own
                 page = browser.new_page(viewport={"width": 1400, "height": 1000})
                 page.goto(url)
                 wait_ms = 30_000 * K
-                # the path the SDN app built for wt1_1 (sdc1-s1-s3-l2-wt1_1 unless a busy machine made it reroute)
-                page.wait_for_function("() => /^sdc1-s\\d+-.*-wt1_1$/.test("
-                                       "(document.querySelector('#path-wt1_1') || {}).textContent || '')",
-                                       timeout=wait_ms)
-                hops = page.inner_text("#path-wt1_1").strip().split("-")
-                path_links = {"-".join(sorted(pair)) for pair in zip(hops, hops[1:])}
-                highlighted = page.eval_on_selector_all("#topology line.path", "ls => ls.map(l => l.dataset.link)")
-                assert path_links <= set(highlighted)  # (ends sorted by name)
+                # the path the SDN app built for wt1_1 (sdc1-s1-s3-l2-wt1_1 unless a busy machine made it
+                # reroute), shown in the table and highlighted in the drawing, both read in one snapshot of
+                # the page (a loaded machine once rerouted twice between two separate reads of them)
+                shown = page.wait_for_function("""() => {
+                    const text = ((document.querySelector('#path-wt1_1') || {}).textContent || '').trim();
+                    if (!/^sdc1-s\\d+-.*-wt1_1$/.test(text)) return false;
+                    const lit = new Set([...document.querySelectorAll('#topology line.path')].map(l => l.dataset.link));
+                    const hops = text.split('-');  // a link's data-link has its ends sorted by name
+                    return hops.slice(1).every((hop, i) => lit.has([hops[i], hop].sort().join('-'))) && text;
+                }""", timeout=wait_ms)
+                hops = shown.json_value().split("-")
                 assert page.locator("#topology line.down").count() == 0
                 page.wait_for_function("() => document.querySelectorAll('#plots .uplot').length === 4", timeout=wait_ms)
                 a, b = take_down_a_path_link(child, hops[1], hops[2])  # the first switch-to-switch link
