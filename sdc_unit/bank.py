@@ -15,6 +15,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from sdc_unit.answer import ctrl_bytes
 from sdc_unit.blocks import METHODS as VISC_METHODS
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
@@ -58,7 +59,7 @@ class ControllerBank:
             self.step(np.array([slot]), meas)
         self.track(np.array([slot]), meas)
         if self.answers_one(slot):
-            out = np.zeros(64, dtype=np.uint8)
+            out = np.zeros(ctrl_bytes(header=True), dtype=np.uint8)
             for header in (wire.Header(1, 0, 0), None):
                 data = wire.encode(wire.MsgType.MEAS, {"wt": 101, "seq": 1, "t_sim": 0.0, **op}, header=header)
                 self.meas_to_ctrl(slot, data, header is not None, out, 101, 1, 1, 0, 0, 0)

@@ -217,6 +217,14 @@ class CompiledEngine:
         v.last_limited = limited
         return ok
 
+    def _ready_for_slots(self) -> None:
+        """The matrices stacked and the persistent measurement matrix of the per-slot kernels there."""
+        v = self.visc
+        if self.stale:
+            self._stack()
+        if self._slot_meas is None or self._slot_meas.shape[1] != v.n:
+            self._slot_meas = np.zeros((len(MEAS_FIELDS), v.n), dtype=v.dtype)
+
     def advance_slots(self, slots: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """:meth:`advance` of the active ones of the instances ``slots`` (distinct, intp), on ``rows``
         (finite, (len(MEAS_FIELDS), len(slots)), float64) in one kernel call
@@ -224,10 +232,7 @@ class CompiledEngine:
         matrix, whose other columns the kernel does not read). Returns (valid, outputs, limited) per
         slot: outputs = the slots' last outputs (rows OUT_FIELDS) after the step."""
         v = self.visc
-        if self.stale:
-            self._stack()
-        if self._slot_meas is None or self._slot_meas.shape[1] != v.n:
-            self._slot_meas = np.zeros((len(MEAS_FIELDS), v.n), dtype=v.dtype)
+        self._ready_for_slots()
         rows = np.ascontiguousarray(rows, dtype=np.float64)  # one kernel signature (no compile at run time)
         k = len(slots)
         ok, outputs, limited = np.empty(k, dtype=bool), np.empty((len(OUT_FIELDS), k)), np.empty(k, dtype=bool)
@@ -241,10 +246,7 @@ class CompiledEngine:
         one kernel call (:func:`sdc_unit.ctrl_jit.meas_to_ctrl`, whose codes it returns); the same
         sample as :meth:`advance_slots`."""
         v = self.visc
-        if self.stale:
-            self._stack()
-        if self._slot_meas is None or self._slot_meas.shape[1] != v.n:
-            self._slot_meas = np.zeros((len(MEAS_FIELDS), v.n), dtype=v.dtype)
+        self._ready_for_slots()
         return ctrl_jit.meas_to_ctrl(self._x, self._coef, self.consts, self.flags, self._slot_meas, self._refs,
                                      self._mem, v.active, self._last, v.last_limited, slot,
                                      np.frombuffer(data, dtype=np.uint8), with_header, out, wt, ctrl_seq, meas_seq,
