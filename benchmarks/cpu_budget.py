@@ -8,7 +8,7 @@ the end (/proc utime + stime; start-up compiles left out): the plant, each SDC, 
 the OWFCC and ovs-vswitchd (all switches). Per sample = per plant step. Needs root.
 
     python benchmarks/cpu_budget.py [--turbines 1,4,16] [--duration 10] [--time-scale 4] [--plant full]
-                                    [--switch-ports system|afxdp|afxdp-nonpmd] [--switch-links veth|patch]
+                                    [--switch-ports system|afxdp|afxdp-nonpmd] [--switch-links veth|patch] [--cpu-split on|off]
 
 ``total_us`` adds ovs-vswitchd: at time scale 1 the machine holds the run only while it is below
 ``cpus`` × Ts (``fits_cores`` = total / Ts, the cores the run needs at k = 1).
@@ -50,6 +50,7 @@ def main() -> int:
     ap.add_argument("--plant", choices=["full", "minimal"], default="full")
     ap.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default="system")
     ap.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default="veth")
+    ap.add_argument("--cpu-split", choices=("on", "off"), default="off")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
     if os.geteuid() != 0:
@@ -58,12 +59,13 @@ def main() -> int:
     work.mkdir(parents=True, exist_ok=True)
     result: dict = {"benchmark": "cpu_budget", "plant": args.plant, "time_scale": args.time_scale,
                     "duration_s": args.duration, "switch_ports": args.switch_ports, "switch_links": args.switch_links,
-                    "cpus": os.cpu_count(), "load_before": os.getloadavg(),
+                    "cpu_split": args.cpu_split, "cpus": os.cpu_count(), "load_before": os.getloadavg(),
                     "goals_us": GOALS_US, "cases": {}}
     started = time.time()
     for n in (int(x) for x in args.turbines.split(",")):
         s = run_dict(scenario(n, args.duration, args.time_scale, args.plant), work,
-                     "--switch-ports", args.switch_ports, "--switch-links", args.switch_links)
+                     "--switch-ports", args.switch_ports, "--switch-links", args.switch_links,
+                     "--cpu-split", args.cpu_split)
         cpu = s.get("cpu", {})
         per = {name: v["us_per_step"] for name, v in cpu.items()}
         chain = sum(v for name, v in per.items() if name != "ovs-vswitchd")

@@ -207,6 +207,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="the switch side of every link in the runs and in the floor (scenarios/switch_ports.py)")
     parser.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default="veth",
                         help="switch-to-switch links in the runs and the topology floor (scenarios/switch_links.py)")
+    parser.add_argument("--cpu-split", choices=("on", "off"), default="off",
+                        help="on: Open vSwitch on a CPU of its own in the runs (sdvisc/cpu_split.py)")
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
     parser.add_argument("--all-links", action="store_true",
                         help="only the sweep: every single-link failure of paper, farm compact and farm tower, "
@@ -228,7 +230,8 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     work = Path(args.out) if args.out else Path(tempfile.mkdtemp(prefix="sdvisc-recovery-"))
     work.mkdir(parents=True, exist_ok=True)
-    scale = ("--time-scale", args.time_scale, "--switch-ports", args.switch_ports, "--switch-links", args.switch_links)
+    scale = ("--time-scale", args.time_scale, "--switch-ports", args.switch_ports, "--switch-links", args.switch_links,
+             "--cpu-split", args.cpu_split)
     started = time.time()
     if args.all_links:
         load_before = os.getloadavg()
@@ -255,7 +258,7 @@ def main(argv: list[str] | None = None) -> int:
                        for t, (topo, _) in TOPOLOGIES.items()}
                       if args.floor_repeat and args.failures > 0 and args.switch_ports == "system" else {})
     result: dict = {"benchmark": "recovery", "failures_per_run": args.failures, "time_scale": args.time_scale,
-                    "switch_ports": args.switch_ports, "switch_links": args.switch_links,
+                    "switch_ports": args.switch_ports, "switch_links": args.switch_links, "cpu_split": args.cpu_split,
                     "units": "ms (simulated ms at a time scale above 1; the floor is wall ms)", "floor": floor,
                     "topology_floor": topology_floor,
                     "runs": {}}

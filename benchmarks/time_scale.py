@@ -41,13 +41,16 @@ def judge(s: dict) -> dict:
             "holds": late < LATE_MAX and worst is not None and worst >= WITHIN_ONE_MIN and not trips}
 
 
-def smallest_time_scale(name: str, work: Path, start: float = 1.0, largest: float = 64.0) -> tuple[float | None, dict]:
+def smallest_time_scale(name: str, work: Path, start: float = 1.0, largest: float = 64.0,
+                        extra: tuple[str, ...] = ()) -> tuple[float | None, dict]:
     """The smallest k of start, 2·start, … largest at which ``scenarios/<name>.yaml`` holds
-    (:func:`judge`), and the verdict of every k tried; None if none does."""
+    (:func:`judge`), and the verdict of every k tried; None if none does. ``extra``: more
+    ``sdvisc run`` options."""
     tried: dict = {}
     k = start
     while k <= largest:
-        verdict = judge(run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_k{k:g}", "--time-scale", f"{k:g}"))
+        verdict = judge(run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_k{k:g}", "--time-scale", f"{k:g}",
+                                 *extra))
         tried[f"{k:g}"] = verdict
         if verdict["holds"]:
             return k, tried
@@ -61,8 +64,12 @@ def main() -> int:
     ap.add_argument("--auto", action="store_true", help="also run once at --time-scale auto and compare")
     ap.add_argument("--start", type=float, default=1.0)
     ap.add_argument("--max", type=float, default=64.0)
+    ap.add_argument("--switch-links", choices=("veth", "patch"), help="override the scenarios' switch_links")
+    ap.add_argument("--cpu-split", choices=("on", "off"), help="override the scenarios' cpu_split")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
+    extra = tuple(x for opt, v in (("--switch-links", args.switch_links), ("--cpu-split", args.cpu_split)) if v
+                  for x in (opt, v))
     if os.geteuid() != 0:
         raise SystemExit("needs root")
     work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-timescale-"))
@@ -70,13 +77,13 @@ def main() -> int:
     result: dict = {"benchmark": "time_scale", "cpus": os.cpu_count(), "load_before": os.getloadavg(),
                     "criteria": {"late_fraction_below": LATE_MAX, "within_one_sample_at_least": WITHIN_ONE_MIN,
                                  "converter_trips": 0},
-                    "scenarios": {}}
+                    "options": list(extra), "scenarios": {}}
     started = time.time()
     for name in args.scenarios.split(","):
-        found, tried = smallest_time_scale(name, work, args.start, args.max)
+        found, tried = smallest_time_scale(name, work, args.start, args.max, extra)
         result["scenarios"][name] = {"min_time_scale": found, "tried": tried}
         if args.auto:
-            s = run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_auto", "--time-scale", "auto")
+            s = run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_auto", "--time-scale", "auto", *extra)
             cal = s["time"]["calibration"]
             result["scenarios"][name]["auto"] = {
                 "time_scale": cal["time_scale"], "met": cal["met"], "calibration_wall_s": cal["wall_s"],

@@ -59,6 +59,8 @@ def _cmd_run(args) -> int:
         scenario.switch_ports = args.switch_ports
     if args.switch_links is not None:
         scenario.switch_links = args.switch_links
+    if args.cpu_split is not None:
+        scenario.cpu_split = args.cpu_split == "on"
     problem = _session_options(args, scenario)
     if args.calibrate_from is not None:
         from scenarios.calibrate import CANDIDATES
@@ -190,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default=None,
                    help="how switches are joined (overrides the scenario's switch_links): veth pairs, or patch ports "
                         "(every bridge of a path in one datapath pass; a failed link is removed)")
+    p.add_argument("--cpu-split", choices=("on", "off"), default=None,
+                   help="on: Open vSwitch's threads on a CPU of their own, the run's processes on the others "
+                        "(overrides the scenario's cpu_split)")
     p.set_defaults(func=_cmd_run)
     p = sub.add_parser("check", help="validate scenario files (exit 1 naming file, line and key)")
     p.add_argument("files", nargs="+")

@@ -27,7 +27,7 @@ from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from scenarios.timeline import Timeline
-from sdvisc import cleanup
+from sdvisc import cleanup, cpu_split
 from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
 from sdvisc.netns import set_link_up
@@ -61,6 +61,7 @@ class Run:
         self.calibrate_from: float | None = None  # auto: the k to try first (scenarios.calibrate.search)
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
         self.switch_ports: dict = {}  # scenarios.switch_ports.use: requested, used, refused
+        self.cpu_split: dict = {"applied": False, "why": "off"}  # sdvisc.cpu_split.apply
         self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
         self.teardown_wall_s: dict[str, float] = {}  # … and per teardown phase (each process's stop, mininet)
         self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
@@ -114,6 +115,10 @@ class Run:
 
         setLogLevel("warning")
         sc = self.scenario
+        if sc.cpu_split:  # before any host shell or service starts: they inherit the run's CPUs
+            self.cpu_split = cpu_split.apply()
+            if not self.cpu_split["applied"]:
+                self._say(f"sdvisc: cpu_split not applied: {self.cpu_split['why']}")
         topo = self.impairments.build_topology(topos[sc.topology.name], sc.topology.params())
         self.desc = describe(topo)
         ports = [_free_port(), _free_port()]
@@ -250,6 +255,8 @@ class Run:
         self.processes.start("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
         # the plant sets t = 0 (wall time) once its model is built and warmed up
         self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
+        if self.cpu_split["applied"]:  # where each process may run (summary.json cpu_split.seen)
+            self.cpu_split["seen"] = cpu_split.seen({n: p.pid for n, p in self.procs.items()})
         self.wall_started = self.clock.to_wall(self.t0)
         self.cpu_at_start: dict[str, float] = {}
         self.cpu_at_controllers_stop: dict[str, float] = {}
@@ -360,7 +367,7 @@ class Run:
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
             phase("mininet_stop")
-            cleanup.clean()
+            cleanup.clean()  # also undoes the CPU split (sdvisc.cpu_split.restore)
             phase("cleanup")
 
 

@@ -333,6 +333,9 @@ class Scenario(Strict):
     switch_links: Literal["veth", "patch"] = Field(
         "veth", description="how switches are joined: veth pairs, or Open vSwitch patch ports (one datapath pass "
                             "across every bridge; a failed link is removed; scenarios/switch_links.py)")
+    cpu_split: bool = Field(
+        False, description="Open vSwitch's threads on a CPU of their own, the run's processes on the others "
+                           "(sdvisc/cpu_split.py); nothing with one CPU")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)

@@ -14,6 +14,8 @@ import signal
 import subprocess
 import time
 
+from sdvisc import cpu_split
+
 SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
 BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
 LINK_RE = re.compile(rf"^(?:{SWITCH_NAME}|imp\d+)(?:-eth\d+)?$")  # imp<n>: impairment elements (topologies.base)
@@ -87,12 +89,14 @@ def testbed_links() -> list[str]:
 
 def leftovers() -> dict:
     """What a run left behind, without removing anything."""
-    return {"processes": [p for p, _ in project_processes()], "bridges": testbed_bridges(), "links": testbed_links()}
+    return {"processes": [p for p, _ in project_processes()], "bridges": testbed_bridges(), "links": testbed_links(),
+            "cpu_split": ["ovs-vswitchd pinned"] if cpu_split.pinned() else []}
 
 
 def clean(verbose: bool = False) -> dict:
     """Remove all leftovers; returns what was removed."""
-    removed = {"processes": kill_processes(), "bridges": [], "links": []}
+    removed = {"processes": kill_processes(), "bridges": [], "links": [],
+               "cpu_split": ["ovs-vswitchd unpinned"] if cpu_split.restore() else []}
     bridges = testbed_bridges()
     if bridges:
         _run("ovs-vsctl", "--timeout=10", *sum((["--", "--if-exists", "del-br", b] for b in bridges), []))
