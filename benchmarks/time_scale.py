@@ -10,6 +10,7 @@ whether that run held, and ``auto_at_least_min`` (auto never picks a k below the
 Needs root. Defaults: ``fault_4visc_network`` and ``all_visc_50``.
 
     python benchmarks/time_scale.py [--scenarios fault_4visc_network,all_visc_50] [--start 1] [--max 64] [--auto]
+        [--switch-links veth|patch] [--cpu-split on|off] [--compare-cpu-split N]
 """
 
 from __future__ import annotations
@@ -58,6 +59,22 @@ def smallest_time_scale(name: str, work: Path, start: float = 1.0, largest: floa
     return None, tried
 
 
+def compare_cpu_split(name: str, work: Path, k: float, pairs: int, extra: tuple[str, ...]) -> dict:
+    """``pairs`` runs of ``scenarios/<name>.yaml`` at time scale ``k`` with cpu_split on and as many
+    with it off, alternated (the machine's load drifts): each verdict, and how many held."""
+    runs: dict[str, list] = {"on": [], "off": []}
+    for i in range(pairs):
+        for split in ("on", "off"):
+            s = run_file(ROOT / "scenarios" / f"{name}.yaml", work / f"{name}_split_{split}_{i}",
+                         "--time-scale", f"{k:g}", "--cpu-split", split, *extra)
+            verdict = judge(s)
+            verdict.pop("within_one_sample")
+            runs[split].append({**verdict, "load": round(os.getloadavg()[0], 2)})
+    return {"time_scale": k, "runs": runs,
+            "held": {split: sum(r["holds"] for r in rs) for split, rs in runs.items()},
+            "worst_within_one_sample": {split: [r["worst_within_one_sample"] for r in rs] for split, rs in runs.items()}}
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenarios", default="fault_4visc_network,all_visc_50")
@@ -66,6 +83,9 @@ def main() -> int:
     ap.add_argument("--max", type=float, default=64.0)
     ap.add_argument("--switch-links", choices=("veth", "patch"), help="override the scenarios' switch_links")
     ap.add_argument("--cpu-split", choices=("on", "off"), help="override the scenarios' cpu_split")
+    ap.add_argument("--compare-cpu-split", type=int, default=0, metavar="N",
+                    help="instead: N pairs of runs at --start, cpu_split on then off (each scenario), "
+                         "with each run's verdict and how many held per arrangement")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
     extra = tuple(x for opt, v in (("--switch-links", args.switch_links), ("--cpu-split", args.cpu_split)) if v
@@ -79,7 +99,7 @@ def main() -> int:
                                  "converter_trips": 0},
                     "options": list(extra), "scenarios": {}}
     started = time.time()
-    for name in args.scenarios.split(","):
+    for name in args.scenarios.split(",") if not args.compare_cpu_split else ():
         found, tried = smallest_time_scale(name, work, args.start, args.max, extra)
         result["scenarios"][name] = {"min_time_scale": found, "tried": tried}
         if args.auto:
@@ -90,6 +110,10 @@ def main() -> int:
                 "trials": [{k: t[k] for k in ("k", "plant_busy", "sdc_busy", "round_trip_p99_sim_ms", "ok")}
                            for t in cal["trials"]],
                 "run": judge(s), "auto_at_least_min": found is not None and cal["time_scale"] >= found}
+    if args.compare_cpu_split:
+        extra = tuple(x for x in extra if x not in ("--cpu-split", "on", "off"))
+        for name in args.scenarios.split(","):
+            result["scenarios"][name] = compare_cpu_split(name, work, args.start, args.compare_cpu_split, extra)
     result["wall_s"] = round(time.time() - started, 1)
     result["load_after"] = os.getloadavg()
     result["machine"] = machine()
