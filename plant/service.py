@@ -33,11 +33,11 @@ from plant.endpoint_tx import MeasPacker
 from plant.live import STATUS_EVERY_S, LivePublisher
 from plant.recorder import Recorder
 from plant.service_model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
+from plant.service_summary import summarise
 from sdvisc import wire
 from sdvisc.config import ConfigError, PlantConfig, load_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.netns import raise_priority, udp_socket_in
-from sdvisc.stats import delay_summary
 from sdvisc.vocabulary import MEAS_FIELDS
 
 RTT_BINS = 8
@@ -320,49 +320,8 @@ class PlantService:
         self.cpu_s = time.process_time() - cpu_at_start  # from t = 0: what the paced loop cost
 
     def summary(self) -> dict:
-        return {
-            "steps": self.k,
-            "scheduling": getattr(self, "scheduling", "default"),
-            "late_steps": self.late_steps,
-            "cpu_s": round(getattr(self, "cpu_s", 0.0), 4),
-            "converter_trips": {ep.name: int(self.model.trips[ep.index]) for ep in self.endpoints
-                                if getattr(self.model, "trips", None) is not None and self.model.trips[ep.index]},
-            "fallbacks": {ep.name: int(self.model.fallbacks[ep.index]) for ep in self.endpoints
-                          if getattr(self.model, "fallbacks", None) is not None and self.model.fallbacks[ep.index]},
-            "max_lateness_ms": self.max_lateness_s * 1e3,
-            "stalls": [{"t_sim": t, "worst_ms": ms, "steps": last - round(t / self.step_s) + 1} for t, ms, last in self.stalls],
-            "frequency_hz": self.recorder.extremes()["f_pcc_hz"],
-            "batteries": self._battery_summary(),
-            "rx_wire": self.rx_stats.as_dict(),
-            "rx_rejected": endpoint_rx.rejections_by_reason(ep.counts for ep in self.endpoints),
-            "events": self.events_applied,
-            "turbines": {
-                ep.name: {**ep.counts, "first_meas_tx_t": ep.first_meas_tx_t, "first_ctrl_rx_t": ep.first_ctrl_rx_t,
-                          "last_ctrl_rx_t": ep.last_ctrl_rx_t, "ak_ones": ep.ak_ones,
-                          "ctrl_gaps_wall": ep.ctrl_gaps, "ctrl_resumed": ep.ctrl_resumed,
-                          "takeover_jump_pu": ep.takeover_jump,
-                          "last_ctrl_wall": ep.last_ctrl_wall if ep.last_ctrl_wall > float("-inf") else None,
-                          "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms),
-                          "rtt_samples": {**{str(n + 1): c for n, c in enumerate(ep.rtt_samples[:-1]) if c},
-                                          **({f">{RTT_BINS - 1}": ep.rtt_samples[-1]} if ep.rtt_samples[-1] else {})}}
-                for ep in self.endpoints
-            },
-        }
-
-    def _battery_summary(self) -> dict:
-        """Per battery turbine: SOC at t = 0 and now, the smallest recorded, the change, the energy
-        delivered to the DC link (MWh) and the largest recorded power (p.u.)."""
-        if not self.batteries:
-            return {}
-        batt, rec = self.model.tb.batt, self.recorder.extremes()["batteries"]
-        energy = batt.energy_mwh()
-        out = {}
-        for name, i in self.batteries.items():
-            soc = float(batt.soc[i])
-            out[name] = {"soc_start": round(self.soc_start[name], 8), "soc_end": round(soc, 8),
-                         "soc_change": round(soc - self.soc_start[name], 8), "soc_min": rec[name]["soc_min"],
-                         "energy_mwh": round(float(energy[i]), 6), "p_batt_max_pu": rec[name]["p_batt_max"]}
-        return out
+        """What plant_stats.json holds (:func:`plant.service_summary.summarise`)."""
+        return summarise(self)
 
     def close(self) -> None:
         self.recorder.close()
