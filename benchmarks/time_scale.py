@@ -88,8 +88,8 @@ def main() -> int:
                          "with each run's verdict and how many held per arrangement")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
-    extra = tuple(x for opt, v in (("--switch-links", args.switch_links), ("--cpu-split", args.cpu_split)) if v
-                  for x in (opt, v))
+    links = ("--switch-links", args.switch_links) if args.switch_links else ()
+    extra = links + (("--cpu-split", args.cpu_split) if args.cpu_split else ())
     if os.geteuid() != 0:
         raise SystemExit("needs root")
     work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-timescale-"))
@@ -111,9 +111,8 @@ def main() -> int:
                            for t in cal["trials"]],
                 "run": judge(s), "auto_at_least_min": found is not None and cal["time_scale"] >= found}
     if args.compare_cpu_split:
-        extra = tuple(x for x in extra if x not in ("--cpu-split", "on", "off"))
-        for name in args.scenarios.split(","):
-            result["scenarios"][name] = compare_cpu_split(name, work, args.start, args.compare_cpu_split, extra)
+        for name in args.scenarios.split(","):  # --cpu-split is what the comparison varies
+            result["scenarios"][name] = compare_cpu_split(name, work, args.start, args.compare_cpu_split, links)
     result["wall_s"] = round(time.time() - started, 1)
     result["load_after"] = os.getloadavg()
     result["machine"] = machine()
