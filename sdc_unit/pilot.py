@@ -50,7 +50,7 @@ def main(argv: list[str] | None = None) -> int:
         service._on_request(start_request(wid, n + 1, cfg.header), cfg.controller_vip, service.clock.now())
 
     def stop(*_):
-        service.running = False
+        service.stop()
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)

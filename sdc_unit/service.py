@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import select
 import signal
 import socket
@@ -62,6 +63,10 @@ from sdvisc.vocabulary import REQUEST_PARAM_WORDS
 from sdvisc.wire_batch import record_dtype
 
 HEARTBEAT_S = 0.01
+IDLE_WAIT_S = 0.5
+"""Wall seconds the main loop waits for a datagram before it looks at ``until`` again (:meth:`SdcService.stop`
+ends the wait at once). Nothing else in the loop is timed: the heartbeats have their own thread, so
+an idle SDC wakes only for them (it woke every 5 ms before, ~12 µs of CPU per plant step)."""
 
 
 @dataclass
@@ -114,6 +119,14 @@ class SdcService(MeasurementIntake):
         self.gathered = 0  # datagrams read while waiting for the rest of a sample
         self.gather_incomplete = 0  # waits the window ended before every streaming turbine's MEAS came
         self.running = True
+        self._wake_fd = os.eventfd(0, os.EFD_NONBLOCK | os.EFD_CLOEXEC)  # written by stop(): ends the idle wait
+
+    def stop(self) -> None:
+        """End :meth:`run` (callable from a signal handler or another thread): the loop's wait ends
+        at once, the round in progress is finished."""
+        self.running = False
+        if self._wake_fd >= 0:  # (-1: run() has ended and closed it)
+            os.eventfd_write(self._wake_fd, 1)
 
     @staticmethod
     def _open_socket(bind_ip: str) -> socket.socket:
@@ -282,13 +295,16 @@ class SdcService(MeasurementIntake):
             self.clock.sleep(HEARTBEAT_S)
 
     def run(self, until: float | None = None) -> None:
-        poller = select.epoll()
+        poller = select.epoll()  # the socket alone (the gather window waits on it)
         poller.register(self.sock.fileno(), select.EPOLLIN)
+        waiter = select.epoll()  # the socket or stop()
+        waiter.register(self.sock.fileno(), select.EPOLLIN)
+        waiter.register(self._wake_fd, select.EPOLLIN)
         beats = threading.Thread(target=self._heartbeat_loop, name="heartbeat", daemon=True)
         beats.start()
         try:
             while self.running and (until is None or time.time() < until):  # until: wall time
-                poller.poll(self.clock.wall_s(HEARTBEAT_S / 2))
+                waiter.poll(IDLE_WAIT_S if until is None else min(IDLE_WAIT_S, max(0.0, until - time.time())))
                 now = self.clock.now()  # the run's one clock: stamps, delays and events in simulated seconds
                 batch = self._drain(now, poller)
                 self._serve(batch, self.clock.now() if self.gather_wall_s > 0 else now)
@@ -296,6 +312,9 @@ class SdcService(MeasurementIntake):
             self.running = False
             beats.join(timeout=1.0)
             poller.close()
+            waiter.close()
+            fd, self._wake_fd = self._wake_fd, -1
+            os.close(fd)
 
     def summary(self) -> dict:
         return {
@@ -334,7 +353,7 @@ def main(argv: list[str] | None = None) -> int:
     write_json_atomic(out_dir / f"sdc{service.sdc_id}_ready.json", {"t_ready": time.time()})
 
     def stop(*_):
-        service.running = False
+        service.stop()
 
     signal.signal(signal.SIGTERM, stop)
     signal.signal(signal.SIGINT, stop)

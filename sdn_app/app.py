@@ -21,6 +21,7 @@ from os_ken.controller.handler import CONFIG_DISPATCHER, MAIN_DISPATCHER, set_ev
 from os_ken.lib import hub
 from os_ken.ofproto import ofproto_v1_3
 
+from sdn_app import timer
 from sdn_app.flows import Barrier
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
@@ -33,7 +34,6 @@ ROLE_ENV = "SDVISC_SDN_ROLE"  # master | slave | equal (default: equal, a single
 INSTANCE_ENV = "SDVISC_SDN_INSTANCE"  # 1 or 2: file names and event source
 PEER_ENV = "SDVISC_SDN_PEER"  # "listen_port:send_port" on 127.0.0.1 for the peer heartbeat
 STOPPING = False  # set by the launcher's SIGTERM handler: no more decisions while shutting down
-TICK_S = 0.002
 PUBLISH_S = 0.1
 
 
@@ -171,10 +171,11 @@ class SdviscApp(app_manager.OSKenApp):
                 now = self.clock.now()
                 self._peer(now)
                 self._send(self.logic.tick(now))
+                next_at = self.logic.next_decision_at(now) if self._peer_sock is None else now  # (a peer: every tick)
             if now - self._last_publish >= PUBLISH_S:  # (only this thread reads or sets _last_publish)
                 self._last_publish = now
                 self._publish()
-            hub.sleep(self.clock.wall_s(TICK_S))
+            hub.sleep(self.clock.wall_s(timer.wait_s(now, next_at, self._last_publish + PUBLISH_S)))
 
     def stop(self):
         """Publish the final state and events before os-ken tears the app down."""

@@ -174,6 +174,21 @@ class DrMonitor:
             return True  # the turbine itself reported a loss as long as the hold
         return self._silent(t, now, resumed) and not stalled and now - since >= hold
 
+    def earliest_due(self, wts, now: float) -> float:
+        """A time before which :meth:`due` confirms none of ``wts`` unless an AK arrives first
+        (an AK = 0 makes the controller decide at once): ``now`` while one has a loss in progress
+        or awaits its new path, else the earliest moment one's AK silence can exceed
+        ``ak_timeout_s`` (a confirmation by silence needs it; the hold only comes later)."""
+        earliest = float("inf")
+        for wt in wts:
+            t = self.tracks.get(wt)
+            if t is None or t.fired or t.t_last_rx is None:
+                continue  # no AK yet, or its loss already confirmed: only an AK changes that
+            if t.t_loss is not None or t.awaiting_path:
+                return now
+            earliest = min(earliest, max(t.t_rearm, t.t_last_rx + self.ak_timeout_s))
+        return earliest
+
     def due(self, wt_in_visc: list[str], now: float, *, stalled: bool = False,
             resumed: float = float("-inf")) -> list[tuple[str, float]]:
         """Turbines whose DR is confirmed at ``now`` (each reported once per loss)."""

@@ -127,6 +127,12 @@ class SdcLiveness:
         return (self.silence(sdc, now, resumed) >= self.sdc_dead_s
                 and self.phi(sdc, now, resumed) >= self.dead_phi)
 
+    def earliest_silent(self) -> float:
+        """A time before which no SDC alive now can be :meth:`silent` (its silence must reach
+        ``sdc_dead_s`` first; a heartbeat only moves it later)."""
+        return min((t.t_last + self.sdc_dead_s for sdc, t in self.tracks.items()
+                    if t.t_last is not None and sdc not in self.dead), default=float("inf"))
+
     def declare_dead(self, sdc: str) -> None:
         self.dead.add(sdc)
         self.tracks.setdefault(sdc, HeartbeatTrack()).since_dead = 0

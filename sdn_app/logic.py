@@ -138,6 +138,15 @@ class Controller:
         due = self.dr.due(in_visc, now, stalled=stalled, resumed=resumed)
         return actions + self.recovery.on_dr(due, now)
 
+    def next_decision_at(self, now: float) -> float:
+        """A time before which :meth:`tick` decides nothing, unless a packet arrives first (the
+        shim's timer may sleep until then): ``now`` while anything is in progress (a turbine's
+        loss, a path awaiting its acknowledgements, a suspected SDC, the controller's own stall),
+        else the earliest moment an AK silence or an SDC's heartbeat silence can make a decision."""
+        if self.guard.suspects or self.guard.stalled(now):
+            return now
+        return min(self.dr.earliest_due(self.paths, now), self.guard.liveness.earliest_silent())
+
     def _awaiting_sdc_verdict(self, name: str, sdc: str, now: float, stalled: bool, resumed: float) -> bool:
         """The turbine has lost its control packets while its SDC's heartbeats are overdue too
         (suspected, not yet declared dead). Heartbeats never cross the turbine's path, so the SDC,

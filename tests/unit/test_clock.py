@@ -54,8 +54,8 @@ def test_the_manual_clock_moves_only_when_told():
 def test_sdn_timers_take_the_same_simulated_time_decisions_at_any_time_scale(monkeypatch, k):
     """The SDN app reads its clock for every packet and tick: a DR after an AK loss, with the SDC's
     heartbeats going on, is decided at the same simulated instants at k = 1 and at k."""
-    from sdn_app.app import TICK_S
     from sdn_app.logic import Controller
+    from sdn_app.timer import TICK_S
     from sdvisc import clock as clock_module
     from tests.unit.test_sdn_logic import make_config
     from tests.unit.test_sdn_resilience import ak, heartbeat, visc_on

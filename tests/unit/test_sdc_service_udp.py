@@ -81,7 +81,7 @@ def test_service_answers_every_usable_measurement_once(turbine_socket, tmp_path)
         ctrl = _collect(turbine_socket)
         tx.close()
     finally:
-        svc.running = False
+        svc.stop()
         worker.join(timeout=2.0)
     by_wt = {}
     for m in ctrl:
