@@ -119,13 +119,13 @@ class SdcService(MeasurementIntake):
         self.gathered = 0  # datagrams read while waiting for the rest of a sample
         self.gather_incomplete = 0  # waits the window ended before every streaming turbine's MEAS came
         self.running = True
-        self._wake_fd = os.eventfd(0, os.EFD_NONBLOCK | os.EFD_CLOEXEC)  # written by stop(): ends the idle wait
+        self._wake_fd = -1  # run()'s eventfd while it runs, written by stop(): ends the idle wait
 
     def stop(self) -> None:
         """End :meth:`run` (callable from a signal handler or another thread): the loop's wait ends
         at once, the round in progress is finished."""
         self.running = False
-        if self._wake_fd >= 0:  # (-1: run() has ended and closed it)
+        if self._wake_fd >= 0:  # (-1: run() is not running)
             os.eventfd_write(self._wake_fd, 1)
 
     @staticmethod
@@ -295,6 +295,7 @@ class SdcService(MeasurementIntake):
             self.clock.sleep(HEARTBEAT_S)
 
     def run(self, until: float | None = None) -> None:
+        self._wake_fd = os.eventfd(0, os.EFD_NONBLOCK | os.EFD_CLOEXEC)
         poller = select.epoll()  # the socket alone (the gather window waits on it)
         poller.register(self.sock.fileno(), select.EPOLLIN)
         waiter = select.epoll()  # the socket or stop()
