@@ -15,8 +15,8 @@ as such. An SDN reaction to a turbine whose control packets the plant never saw 
 acknowledgements went missing, e.g. on a busy machine, and the reroute was hitless) is reported
 ``quiet_s`` after the reaction as exactly that, not as a loss. An action after which no turbine
 lost its control packets within ``quiet_s`` says so; a ``visc_on`` is followed until the turbine's first control packet (or its refusal).
-Also: :func:`event_line` (one event as a line, the CLI's ``events``) and :func:`watch_line` (one
-turbine's live numbers, the CLI's ``watch``).
+Also: :func:`event_line` (one event as a line, the CLI's ``events``), :func:`watch_line` (one
+turbine's live numbers, the CLI's ``watch``) and :func:`progress_line` (a run's progress on the terminal).
 """
 
 from __future__ import annotations
@@ -336,3 +336,13 @@ def watch_line(wt: str, status: dict, previous: dict | None, tables: dict) -> st
     path = tables.get("paths", {}).get(wt, {}).get("path")
     return (f"t={t:8.2f} s  {wt}  {rates}  one-way {f'{delay:.2f} ms' if delay is not None else '-'}  {grid}  "
             f"T2 {tables.get('T2', {}).get(wt, '?')} T3 {tables.get('T3', {}).get(wt, '?')}  path {path_text(path) if path else '-'}")
+
+
+def progress_line(status: dict, duration_s: float, width: int = 30) -> str:
+    """A run's progress from the plant's live status (``plant_status.json``; empty before it starts):
+    a bar over the scenario's duration, late steps, packets sent and received, the ViSC turbines."""
+    t = min(status.get("t_sim", 0.0), duration_s)
+    filled = int(width * t / duration_s) if duration_s else width
+    return (f"[{'#' * filled}{'.' * (width - filled)}] t={t:6.2f}/{duration_s:.2f} s  late={status.get('late_steps', 0)}"
+            f"  meas_tx={status.get('meas_tx', 0)}  ctrl_rx={status.get('ctrl_rx', 0)}"
+            f"  visc={','.join(status.get('streaming', [])) or '-'}")

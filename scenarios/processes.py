@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import os
 import signal
+import socket
 import subprocess
 import threading
 import time
@@ -114,6 +115,18 @@ class Processes:
             if time.time() > end:
                 raise RunError(f"{what} not ready after {timeout_s:.0f} s; see {log}")
             time.sleep(0.02)
+
+    def wait_listening(self, name: str, port: int, what: str, timeout_s: float) -> None:
+        """Wait until ``name`` accepts TCP connections on 127.0.0.1:``port`` (an SDN app's OpenFlow port)."""
+        deadline = time.time() + timeout_s
+        while time.time() < deadline:
+            if self.procs[name].poll() is not None:
+                raise RunError(f"{what} exited with {self.procs[name].returncode}; see {self.out}/{name}.log")
+            with socket.socket() as s:
+                if s.connect_ex(("127.0.0.1", port)) == 0:
+                    return
+            time.sleep(0.1)
+        raise RunError(f"{what} did not listen on port {port} within {timeout_s:.0f} s")
 
     # ------------------------------------------------------------------ while the run plays
     def supervise(self, t: float | None) -> None:

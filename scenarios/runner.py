@@ -20,6 +20,7 @@ from pathlib import Path
 
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibrate import Calibration, calibration_line
+from scenarios.feedback import progress_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
 from scenarios.netprep import mark_switches, prepare_hosts, reconnect_controllers
@@ -178,22 +179,11 @@ class Run:
                                                       "--peer", f"{peer_a}:{peer_b}"])
             self.processes.start("controller2", app + ["--ofp-port", str(ports[1]), "--role", "slave", "--instance", "2",
                                                        "--peer", f"{peer_b}:{peer_a}"])
-            self._wait_listening(ports[0], "controller")
-            self._wait_listening(ports[1], "controller2")
+            self.processes.wait_listening("controller", ports[0], "SDN app", SWITCH_CONNECT_TIMEOUT_S)
+            self.processes.wait_listening("controller2", ports[1], "SDN app", SWITCH_CONNECT_TIMEOUT_S)
         else:
             self.processes.start("controller", app + ["--ofp-port", str(ports[0])])
-            self._wait_listening(ports[0], "controller")
-
-    def _wait_listening(self, port: int, name: str) -> None:
-        deadline = time.time() + SWITCH_CONNECT_TIMEOUT_S
-        while time.time() < deadline:
-            if self.procs[name].poll() is not None:
-                raise RunError(f"SDN app exited with {self.procs[name].returncode}; see {self.out}/{name}.log")
-            with socket.socket() as s:
-                if s.connect_ex(("127.0.0.1", port)) == 0:
-                    return
-            time.sleep(0.1)
-        raise RunError(f"SDN app did not listen on port {port} within {SWITCH_CONNECT_TIMEOUT_S:.0f} s")
+            self.processes.wait_listening("controller", ports[0], "SDN app", SWITCH_CONNECT_TIMEOUT_S)
 
     def _wait_switches(self) -> None:
         want = {s["dpid"] for s in self.desc["switches"].values() if s["openflow"]}
@@ -340,14 +330,7 @@ class Run:
     def _progress(self, tty: bool, final: bool = False) -> None:
         if self.quiet:
             return
-        st = self.plant_status() or {}
-        total = self.scenario.duration_s
-        t = min(st.get("t_sim", 0.0), total)
-        width = 30
-        filled = int(width * t / total) if total else width
-        line = (f"[{'#' * filled}{'.' * (width - filled)}] t={t:6.2f}/{total:.2f} s  late={st.get('late_steps', 0)}"
-                f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}"
-                f"  visc={','.join(st.get('streaming', [])) or '-'}")
+        line = progress_line(self.plant_status() or {}, self.scenario.duration_s)
         if tty:
             print("\r" + line.ljust(110), end="\n" if final else "", flush=True)
         else:

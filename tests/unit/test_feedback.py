@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from scenarios.feedback import Feedback, event_line, watch_line
+from scenarios.feedback import Feedback, event_line, progress_line, watch_line
 from scenarios.live import EventTail, check_open_ended
 from scenarios.processes import RunError
 from scenarios.web import _is_loopback, layout, snapshot
@@ -310,3 +310,13 @@ def test_session_options_of_sdvisc_run():
     assert "(--cli)" in _session_options(opts(web=8765), load_scenario(smoke))
     sc = load_scenario(smoke)
     assert _session_options(opts(duration=10.0), sc) is None and sc.duration_s == 10.0
+
+
+def test_progress_line_fills_the_bar_with_simulated_time_and_shows_the_counters():
+    status = {"t_sim": 5.0, "late_steps": 3, "meas_tx": 7000, "ctrl_rx": 6990, "streaming": ["wt1_1", "wt2_3"]}
+    line = progress_line(status, 10.0, width=20)
+    assert line.startswith("[" + "#" * 10 + "." * 10 + "] t=  5.00/10.00 s")
+    assert "late=3" in line and "meas_tx=7000" in line and "ctrl_rx=6990" in line and "visc=wt1_1,wt2_3" in line
+    assert progress_line({"t_sim": 12.5}, 10.0, width=20).startswith("[" + "#" * 20 + "] t= 10.00/10.00 s")  # clipped
+    before_start = progress_line({}, 10.0, width=20)
+    assert before_start.startswith("[" + "." * 20 + "] t=  0.00") and "late=0" in before_start and "visc=-" in before_start

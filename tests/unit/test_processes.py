@@ -3,11 +3,14 @@ purpose, or take commands on stdin."""
 
 from __future__ import annotations
 
+import socket
 import subprocess
 import sys
 import time
 
-from scenarios.processes import MAX_RESTARTS, Processes
+import pytest
+
+from scenarios.processes import MAX_RESTARTS, Processes, RunError
 
 
 def wait_exit(procs: Processes, name: str) -> None:
@@ -75,3 +78,22 @@ def test_a_controller_that_exits_when_asked_at_the_end_did_not_exit_early(tmp_pa
     wait_exit(procs, "controller")
     procs.stop_all()
     assert procs.exited_early == {"sdc1.sdc": 3}
+
+
+def test_wait_listening_returns_once_the_port_accepts_and_names_a_service_that_died(tmp_path):
+    procs = Processes(tmp_path, lambda e: None)
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    listener = ("import socket, time; time.sleep(0.3); s = socket.socket(); "
+                f"s.bind(('127.0.0.1', {port})); s.listen(); time.sleep(30)")
+    procs.start("controller", [sys.executable, "-c", listener])
+    try:
+        procs.wait_listening("controller", port, "SDN app", timeout_s=30)  # listens only after 0.3 s
+        with socket.create_connection(("127.0.0.1", port), timeout=5):
+            pass
+    finally:
+        procs.kill("controller", crash=False)
+    procs.start("controller2", [sys.executable, "-c", "import sys; sys.exit(4)"])
+    with pytest.raises(RunError, match=r"SDN app exited with 4; see .*controller2\.log"):
+        procs.wait_listening("controller2", port, "SDN app", timeout_s=30)
