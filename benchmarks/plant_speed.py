@@ -10,6 +10,9 @@ then step() and measurements(), on the plant the service builds (remote_apply "i
 PlantConfig default; until 2026-12-01 this mode ran with "v_ref" and read the references from the
 plant's private evaluation cache, work the service does not do); ``cpu_us_per_step_*`` is the
 process CPU per step of that run (less disturbed by other load than the wall time).
+``recorder_50wt_4remote``: the CPU of one call of the plant service's recorder on that plant,
+``outputs()`` (every quantity) against ``recorded()`` (what ``timeseries.csv`` holds, the
+recorder's call since 2026-12-02), per call and per step at the default ``record_every``.
 ``*_4hd_visc_battery`` (F5: batteries on the four SDViSCs' DC links) and ``*_scr2_limiting`` (a grid of
 SCR 2 where the grid-following turbines' current limiters act, as in F7/F9's searches) run the
 compiled step too: it covers the batteries and every limiter (plant/turbine_kernels.py).
@@ -94,6 +97,31 @@ def _rate_applied(p: Plant, idx: np.ndarray, t_sim: float) -> tuple[float, float
     return n * p.step_s / wall, cpu / n * 1e6
 
 
+def _record_cost_us(p: Plant, idx: np.ndarray, calls: int = 1500) -> dict:
+    """Process CPU µs of one recorder call on the service's plant (four remote turbines), made as the
+    service makes it: after ``apply_remote``, ``step()`` and ``measurements()``, the evaluation of
+    the new state already done. ``outputs()`` (what the recorder called until 2026-12-02: every
+    quantity, with the full node-voltage solve and the fault sequences) against ``recorded()``
+    (only what ``timeseries.csv`` holds), alternated call by call."""
+    index = idx.astype(np.intp)
+    spent = {"outputs": 0.0, "recorded": 0.0}
+    m = p.measurements()
+    for k in range(2 * calls):
+        p.apply_remote(index, m["v_d"][idx], m["v_q"][idx], m["i_d"][idx], m["i_q"][idx])
+        p.step()
+        m = p.measurements()
+        name = "outputs" if k % 2 else "recorded"
+        call = getattr(p, name)
+        t0 = time.process_time()
+        call()
+        spent[name] += time.process_time() - t0
+    every = PlantConfig.model_fields["record_every"].default
+    out = {f"{name}_us_per_call": round(cpu / calls * 1e6, 1) for name, cpu in spent.items()}
+    out.update({f"{name}_us_per_step_at_record_every_{every}": round(cpu / calls * 1e6 / every, 2)
+                for name, cpu in spent.items()})
+    return out
+
+
 def _over_step_fraction(p: Plant, t_sim: float) -> float:
     n = int(round(t_sim / p.step_s))
     dt = np.empty(n)
@@ -163,6 +191,7 @@ def main() -> None:
     factor, cpu_us = _rate_applied(_service_plant(np.arange(20, 24)), np.arange(20, 24), t_sim)
     out["realtime_factor_50wt_4remote_applied"] = round(factor, 3)
     out["cpu_us_per_step_50wt_4remote_applied"] = round(cpu_us, 1)
+    out["recorder_50wt_4remote"] = _record_cost_us(_service_plant(np.arange(20, 24)), np.arange(20, 24))
     # the report's other plants: F5's batteries on the four SDViSCs' DC links, and a weak grid (F7/F9's
     # searches) where the grid-following turbines' current limiters act
     out["realtime_factor_50wt_4hd_visc_battery"] = round(_rate(visc_plant(4, battery=True), t_sim), 3)

@@ -118,6 +118,11 @@ class MinimalPlant:
                 "v_dc": np.ones(self.n), "omega_meas": np.ones(self.n)}
 
     def outputs(self) -> dict[str, np.ndarray | float]:
+        """All this model has: what :meth:`recorded` returns."""
+        return self.recorded()
+
+    def recorded(self) -> dict[str, np.ndarray | float]:
+        """What ``timeseries.csv`` holds (plant.recorder), as :meth:`plant.sim.Plant.recorded`."""
         m = self.measurements()
         return {"t": self.t, "v_pcc": abs(self.v_grid), "f_pcc_hz": F_NOMINAL_HZ, "p": m["p"], "q": m["q"],
                 "i_mag": np.abs(self.i), "mode": self.mode.copy()}

@@ -37,7 +37,7 @@ class Recorder:
     def maybe_record(self, k: int, model) -> None:
         if k % self.every:
             return
-        out = model.outputs()
+        out = model.recorded()  # not outputs(): its full node-voltage solve is not recorded
         row = [f"{out['t']:.6f}", f"{float(out['v_pcc']):.6f}", f"{float(out['f_pcc_hz']):.6f}"]
         for ep in self.endpoints:
             i = ep.index

@@ -265,13 +265,27 @@ class Plant(Commands, RightHandSide):
                                "q": s.imag, "v_dc": aux["vdc"], "omega_meas": om}
         return dict(m)
 
+    def recorded(self) -> dict:
+        """What ``timeseries.csv`` holds (plant.recorder): ``t``, ``v_pcc``, ``f_pcc_hz`` and per
+        turbine ``p``, ``q``, ``i_mag``, ``mode``, ``soc``, ``p_batt`` (units as in :meth:`outputs`, which
+        includes these), from the present evaluation only: no full node-voltage solve, no fault
+        sequences (benchmarks/plant_speed.py ``recorder_50wt_4remote``: its cost against outputs())."""
+        _, _, aux = self._eval_cached()
+        s_wt, i = aux["v"] * np.conj(aux["i"]), aux["i"]
+        p_batt = aux["pbatt"]
+        return {"t": self.t, "v_pcc": abs(aux["v_pcc"]), "f_pcc_hz": F_NOMINAL_HZ * float(aux["f_pcc_pu"]),
+                "p": s_wt.real, "q": s_wt.imag, "i_mag": np.abs(i), "mode": self.tb.mode.copy(),
+                "soc": self.tb.batt.soc.copy(),
+                "p_batt": np.where(self.net.plugged, p_batt, 0.0) if np.ndim(p_batt) else np.zeros(self.n)}
+
     def outputs(self) -> dict:
-        """Scalar and per-turbine quantities for time series (see docs/plant.md for units)."""
+        """Scalar and per-turbine quantities for time series (see docs/plant.md for units): those of
+        :meth:`recorded` and the rest."""
+        rec = self.recorded()
         _, _, aux = self._eval_cached()
         net, n, lay = self.net, self.n, self.layout
         S = lay.turbines(self.X)
-        V, v, i = self._full_v(aux), aux["v"], aux["i"]
-        s_wt = v * np.conj(i)
+        V = self._full_v(aux)
         i_sc = aux["i_sc"]
         s_sc = V[net.sc] * np.conj(i_sc)
         ig = (aux["e_grid"] - V[net.pcc]) * net.y_grid  # from the source into the pcc
@@ -293,14 +307,12 @@ class Plant(Commands, RightHandSide):
         if lo is not None:
             visc_delta[self.visc_idx] = lo.delta
             visc_e[self.visc_idx] = lo.e_mag
-        p_batt = aux["pbatt"]
-        p_batt = np.where(net.plugged, p_batt, 0.0) if np.ndim(p_batt) else np.zeros(n)
         return {
-            "t": self.t,
-            "v_pcc": abs(V[net.pcc]), "f_pcc_hz": F_NOMINAL_HZ * float(aux["f_pcc_pu"]), "v_os": abs(V[net.os_mv]),
+            **rec,
+            "v_os": abs(V[net.os_mv]),
             "v_sc": abs(V[net.sc]), "f_grid": float(self.X[lay.grid + GRID_SPEED].real),
             "p_grid": s_grid.real, "q_grid": s_grid.imag,
-            "p_wt": s_wt.real, "q_wt": s_wt.imag, "i_wt": np.abs(i),
+            "p_wt": rec["p"], "q_wt": rec["q"], "i_wt": rec["i_mag"],
             "p_sc": s_sc.real, "q_sc": s_sc.imag, "i_sc": abs(i_sc),
             "sc_delta": xsc[DELTA], "sc_omega": xsc[OMEGA],
             "sc_e": abs(aux["e_sc"]) if net.sc_connected else 0.0, "sc_efd": xsc[EFD],
@@ -308,9 +320,7 @@ class Plant(Commands, RightHandSide):
             "v_dc": aux["vdc"], "pitch": S[T.B].real.copy(), "omega_r": S[T.WR].real.copy(),
             "v_pcc_ph": v_ph, "i_sc_ph_max": float(np.max(i_sc_ph)), "i_fault": abs(i_f),
             "p_me": aux["pme"], "losses": net.series_losses(V),
-            "soc": self.tb.batt.soc.copy(), "p_batt": p_batt, "e_batt_mwh": self.tb.batt.energy_mwh(),
-            # aliases shared with plant.minimal (used by plant.recorder)
-            "p": s_wt.real, "q": s_wt.imag, "i_mag": np.abs(i), "mode": self.tb.mode.copy(),
+            "e_batt_mwh": self.tb.batt.energy_mwh(),
         }
 
     # ================================================================== offline runs

@@ -61,6 +61,19 @@ def test_outputs_keys(settled):
         assert k in o
 
 
+def test_recorded_is_outputs_without_the_full_node_solve(settled):
+    """What timeseries.csv records (``recorded()``, no full node-voltage solve) against quantities
+    computed independently: the PCC phase voltages of the full solve (balanced here: each is |V1|)
+    and the measurement rows the SDC receives (tolerance: rounding)."""
+    r, o, m = settled.recorded(), settled.outputs(), settled.measurements()
+    assert set(r) == {"t", "v_pcc", "f_pcc_hz", "p", "q", "i_mag", "mode", "soc", "p_batt"}
+    assert np.allclose(o["v_pcc_ph"], r["v_pcc"], rtol=1e-9, atol=0.0)
+    assert np.allclose(r["p"], m["p"], rtol=1e-12, atol=1e-12) and np.allclose(r["q"], m["q"], rtol=1e-12, atol=1e-12)
+    assert np.allclose(r["i_mag"], np.hypot(m["i_d"], m["i_q"]), rtol=1e-12, atol=0.0)
+    for key, val in r.items():  # outputs() includes them, the same
+        assert np.array_equal(o[key], val), key
+
+
 def test_wind_below_rated_gives_mppt_power():
     pp = PlantParams(v_wind=9.0)
     p = Plant(pp, n_turbines=5)
