@@ -12,7 +12,7 @@ from pathlib import Path
 from report import network_runs
 from report.catalogue import EXPERIMENTS, QUICK_NETWORK
 from report.registry import Context, Experiment, NotRun, select
-from report.run import run_report
+from report.run import run_report, tally_text
 from scenarios.switch_ports import SWITCH_PORT_TYPES
 
 DEFAULT_OUT = Path("results/report")
@@ -57,14 +57,14 @@ def main(argv: list[str] | None = None) -> int:
         for e in chosen:
             print(f"{e.id:3} {e.kind:8} {e.paper_figure:24} {e.title}")
             for c in e.claims:
-                print(f"      {c.id:6} {c.text} [paper: {c.paper}]")
+                print(f"      {c.id:6} {c.text} [paper: {c.paper}; {c.kind}]")
         return 0
     network_runs.SWITCH_PORTS = args.switch_ports
     if args.quick and not args.only:
         chosen = [quick_network_subset(e) for e in chosen]
     data = run_report(chosen, args.out, args.quick, argv, offline_on_two_cores=True)
-    print(f"report: {args.out}/index.html, claims.json ({data['wall_s']} s; "
-          + ", ".join(f"{n} {v}" for v, n in data["summary"].items() if n) + ")")
+    print(f"report: {args.out}/index.html, claims.json ({data['wall_s']} s; reproductions: "
+          + tally_text(data["summary"], data["summary_apart"]) + ")")
     return 1 if any(e["status"] == "failed" for e in data["experiments"]) else 0
 
 

@@ -13,7 +13,7 @@ from report import figures, network_runs
 from report.exp_sdc import RMS_PARTLY, RMS_YES
 from report.exp_weak import f9_search, f9_settings
 from report.plantcases import settling, visc_plant
-from report.registry import Context, Experiment, Finding, PaperClaim
+from report.registry import CONSISTENCY, INPUT, Context, Experiment, Finding, PaperClaim
 from report.verdicts import close_to, holds
 
 F1_TURBINES = ["wt1_1", "wt2_1", "wt3_1", "wt4_1"]
@@ -24,14 +24,14 @@ F1NET_CLAIMS = (
 )
 F6NET_CLAIMS = (
     PaperClaim("F6net.a", "The SDViSC's fault contribution (SLG fault 1.0–1.2 s) is limited by its overcurrent "
-               "capability — with the SDC over the network", "1.5 p.u."),
+               "capability — with the SDC over the network", "1.5 p.u.", kind=INPUT),  # the law's i_max
     PaperClaim("F6net.b", "… and it injects reactive power during the fault", "Q > 0"),
 )
 F9NET_CLAIMS = (
     PaperClaim("F9net.a", "With 4 SDViSCs, SCR 7.14 → 1.51 at 1 s, the oscillations are damped and the system reaches "
                "a stable operating condition — with the SDC over the network", "4 SDViSCs: stable"),
     PaperClaim("F9net.b", "Number of SDViSCs needed at SCR 1.51 — the offline search's boundary (n stable, n − 1 not) "
-               "confirmed with the SDC over the network", "4"),
+               "confirmed with the SDC over the network", "4", kind=CONSISTENCY),
 )
 C1_CLAIMS = (
     PaperClaim("C1.a", "When SDViSCs are plugged in (cluster 1 at 1.2 s, cluster 4 at 4.8 s) the SDC immediately "

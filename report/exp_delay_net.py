@@ -18,7 +18,7 @@ from report import figures, network_runs
 from report.beyond import ACCEPT_PCT, UNSTABLE_CRITERION, instability
 from report.exp_delay import DELAYS_MS, QUICK_DELAYS_MS, limits, sweep
 from report.plantcases import visc_indices
-from report.registry import MEASURED, Context, Experiment, Finding, PaperClaim
+from report.registry import CONSISTENCY, MEASURED, Context, Experiment, Finding, PaperClaim
 
 NAME = "f1_tustin_vs_hd"
 CLUSTER3 = ["wt3_1", "wt3_2", "wt3_3", "wt3_4"]
@@ -27,7 +27,7 @@ DEFAULT_TIME_SCALE = 16.0
 
 CLAIMS = (PaperClaim("B1net.a", "Added round-trip delay at which the SDViSC (remote_apply = v_ref) goes unstable — "
                      "the offline sweep's boundary, run through the network with the delay on a link", "not stated",
-                     beyond=True),)
+                     beyond=True, kind=CONSISTENCY),)
 
 
 def variant(delay_ms: float, time_scale: float) -> dict:

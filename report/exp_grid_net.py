@@ -15,7 +15,7 @@ from report.exp_parallel import M_Q, PAPER_V_BEFORE, _grid_emf_for
 from report.exp_sdc import COLLAPSE_DV
 from report.exp_weak import T_EVENT, _run_scr, f7_search_settings, search_boundary
 from report.plantcases import sc_plant, settling, t90, visc_indices, visc_plant
-from report.registry import Context, Experiment, Finding, PaperClaim
+from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
 from report.verdicts import change_close_to, close_to, holds, ordered
 from sdc_unit.params import ViscParams
 from sdvisc.config import GRID_SCENARIO_KEYS
@@ -134,7 +134,7 @@ def _f3net(ctx: Context) -> dict[str, Finding]:
 F4NET_CLAIMS = (
     PaperClaim("F4net.a", "+50 MW load: with the same H = 3 s the frequency nadir is almost the same for the SDViSC "
                "and the SC — with the SDC over the network", "nadir SDViSC ≈ SC"),
-    PaperClaim("F4net.b", "… and the network run's nadir is the one of the same case offline", "nadir as offline"),
+    PaperClaim("F4net.b", "… and the network run's nadir is the one of the same case offline", "nadir as offline", kind=CONSISTENCY),
 )
 
 
@@ -179,7 +179,7 @@ def _f4net(ctx: Context) -> dict[str, Finding]:
 # ------------------------------------------------------------------------------------------- F7net
 F7NET_CLAIMS = (
     PaperClaim("F7net.a", "With the SDViSC the farm stays stable at a lower SCR than with the SC — the boundary found "
-               "offline, confirmed with the SDC over the network", "boundary < 1.58"),
+               "offline, confirmed with the SDC over the network", "boundary < 1.58", kind=CONSISTENCY),
 )
 
 
@@ -236,7 +236,7 @@ def _stable(s) -> str:
 # ------------------------------------------------------------------------------------------- F8net
 F8NET_CLAIMS = (
     PaperClaim("F8net.a", "4 parallel SDViSCs (droop 0.03/0.05/0.07/0.10) share reactive power according to their "
-               "droop coefficients — with the SDC over the network", "Q ordered by 1/m_q"),
+               "droop coefficients — with the SDC over the network", "Q ordered by 1/m_q", kind=CONSISTENCY),
     PaperClaim("F8net.b", "… and raise the PCC voltage when activated at 1 s", "0.97 → 1.02 p.u."),
 )
 

@@ -9,7 +9,7 @@ from plant.params import BatteryParams
 from report import figures, network_runs
 from report.exp_grid import _load_step
 from report.plantcases import visc_plant
-from report.registry import Context, Experiment, Finding, PaperClaim
+from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
 from report.verdicts import close_to, holds
 from sdc_unit.params import ViscParams
 from sdvisc.config import GRID_SCENARIO_KEYS
@@ -19,7 +19,8 @@ NADIR_YES, NADIR_PARTLY = 0.10, 0.35  # |nadir_network - nadir_offline| / |nadir
 
 F5NET_CLAIMS = (
     PaperClaim("F5net.a", "+100 MW load, SDViSCs (H 4 s) with a 2000 Ah battery on the DC link — with the SDC "
-               "over the network: the frequency dip is the one of the same case offline", "nadir as offline"),
+               "over the network: the frequency dip is the one of the same case offline", "nadir as offline",
+               kind=CONSISTENCY),
     PaperClaim("F5net.b", "A 2000 Ah Li-ion battery on the DC link clearly reduces the SDViSC's frequency dip — the "
                "network run with batteries against the SDViSCs without them (offline)", "obviously smaller nadir"),
 )

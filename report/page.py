@@ -8,7 +8,7 @@ import base64
 from html import escape
 from pathlib import Path
 
-from report.registry import LOCK_WAIT_KEY, RERUN_KEY
+from report.registry import LOCK_WAIT_KEY, MEASURED, RERUN_KEY
 
 STYLE = """
 body{font-family:system-ui,sans-serif;max-width:1200px;margin:1.5em auto;padding:0 1em;color:#222}
@@ -47,9 +47,9 @@ def _switch_ports_text(data: dict) -> str:
 
 
 def _claims(rows: list[dict]) -> str:
-    head = ("<tr><th>claim</th><th>the paper says</th><th>paper's value</th><th>this testbed</th>"
+    head = ("<tr><th>claim</th><th>kind</th><th>the paper says</th><th>paper's value</th><th>this testbed</th>"
             "<th>reproduced</th><th>reason / evidence</th><th>command</th></tr>")
-    return f"<table>{head}{_rows(rows)}</table>"
+    return KINDS_TEXT + f"<table>{head}{_rows(rows)}</table>"
 
 
 def _beyond(rows: list[dict]) -> str:
@@ -61,16 +61,35 @@ def _beyond(rows: list[dict]) -> str:
              "turbine). The paper gives no number for these: each row says what the paper states about it, "
              "if anything, and what this testbed measured (no verdict: <i>measured</i>). The paper's "
              "qualitative statements the same sweeps test are in the claims table above.</p>")
-    head = ("<tr><th>item</th><th>question</th><th>what the paper states</th><th>this testbed</th><th></th>"
-            "<th>criteria / evidence</th><th>command</th></tr>")
+    head = ("<tr><th>item</th><th>kind</th><th>question</th><th>what the paper states</th><th>this testbed</th>"
+            "<th></th><th>criteria / evidence</th><th>command</th></tr>")
     return "<h2>Beyond the paper</h2>" + intro + f"<table>{head}{_rows(rows)}</table>"
 
 
 def _rows(rows: list[dict]) -> str:
     return "".join(
-        f"<tr><td><a href='#{escape(r['experiment'])}'>{escape(r['id'])}</a></td><td>{escape(r['claim'])}</td>"
+        f"<tr><td><a href='#{escape(r['experiment'])}'>{escape(r['id'])}</a></td><td>{escape(r['kind'])}</td>"
+        f"<td>{escape(r['claim'])}</td>"
         f"<td>{escape(r['paper'])}</td><td>{escape(r['testbed'])}</td>{_verdict_cell(r['verdict'])}"
         f"<td>{escape(r['reason'])}</td><td><code>{escape(r['command'])}</code></td></tr>" for r in rows)
+
+
+KINDS_TEXT = ("<p class='small'>Kind: <i>reproduction</i> = compared with a number or behaviour the paper states "
+              "(only these count in the headline); <i>consistency</i> = the testbed against itself (e.g. a network "
+              "run against the same case offline); <i>input</i> = a value the model is given (e.g. the 1.5 p.u. "
+              "current limit).</p>")
+
+
+def _counts(data: dict) -> str:
+    """The headline (reproductions only) and what is counted apart."""
+    head = ", ".join(f"{n} {v}" for v, n in data["summary"].items() if n and v != MEASURED) or "none evaluated"
+    apart = data.get("summary_apart") or {}
+    parts = [f"<b>reproductions of the paper: {escape(head)}</b>"]
+    parts += [f"{escape(kind)} (counted apart): " + escape(", ".join(f"{n} {v}" for v, n in c.items()))
+              for kind, c in apart.items()]
+    if data["summary"].get(MEASURED):
+        parts.append(f"beyond the paper: {data['summary'][MEASURED]} measured")
+    return "; ".join(parts)
 
 
 def _experiments_table(exps: list[dict]) -> str:
@@ -140,8 +159,6 @@ def _experiment(e: dict, out_dir: Path) -> str:
 
 
 def render(data: dict, out_dir: Path) -> str:
-    s = data["summary"]
-    tally = ", ".join(f"{n} {v}" for v, n in s.items() if n)
     return "\n".join([
         "<!doctype html><html lang='en'><head><meta charset='utf-8'>",
         "<title>SDViSC testbed: the paper's Section IV reproduced</title>",
@@ -149,7 +166,7 @@ def render(data: dict, out_dir: Path) -> str:
         "<h1>SDViSC testbed: the paper's Section IV, claim by claim</h1>",
         (f"<p><b>Partial: still to run: {escape(', '.join(data['pending']))}</b> (the page is rewritten after "
          "each experiment).</p>" if data.get("pending") else ""),
-        f"<p>Command: <code>{escape(data['command'])}</code>. Claims: {escape(tally)}. The paper's values are typed "
+        f"<p>Command: <code>{escape(data['command'])}</code>. Claims: {_counts(data)}. The paper's values are typed "
         "from the paper; every value in the column <i>this testbed</i> and every verdict is computed by the "
         "experiment (tolerances in report/verdicts.py: a number within 10 % of the paper's is reproduced, within "
         "35 % partly).</p>",

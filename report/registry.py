@@ -4,7 +4,7 @@ side of the report), how it runs (offline or cyber-in-the-loop) and what it foun
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 VERDICTS = ("yes", "partly", "no")  # what a computed finding can say
@@ -12,6 +12,11 @@ LOCK_WAIT_KEY = "network_lock_wait_s"  # Context.numbers: per network run, wall 
 RERUN_KEY = "run_again"  # Context.numbers: the calibrated runs that did not hold and ran again at twice their k
 MEASURED = "measured"  # a question the paper does not ask (``PaperClaim.beyond``): a value, no verdict
 NOT_EVALUATED = ("failed", "not run")  # what the report says when no finding exists
+# What a claim's finding is compared against (issue 28, item 9): only reproductions count in the headline.
+REPRODUCTION = "reproduction"  # against a number or behaviour the paper states
+CONSISTENCY = "consistency"  # the testbed against itself (e.g. a network run against the same case offline)
+INPUT = "input"  # a value that is an input of the model (e.g. the 1.5 p.u. current limit the law is given)
+CLAIM_KINDS = (REPRODUCTION, CONSISTENCY, INPUT)
 
 
 @dataclass(frozen=True)
@@ -23,6 +28,16 @@ class PaperClaim:
     paper: str  # the paper's value, as printed
     beyond: bool = False  # a question beyond the paper (issue 9): ``paper`` says what the paper states
     # about it ("not stated" if nothing), its finding is MEASURED, the page shows it in its own section
+    kind: str = ""  # one of CLAIM_KINDS, what the finding is compared against; if not given: REPRODUCTION
+    # for a claim of the paper, CONSISTENCY beyond it (no value of the paper's: only the testbed's own)
+
+    def __post_init__(self) -> None:
+        if not self.kind:
+            object.__setattr__(self, "kind", CONSISTENCY if self.beyond else REPRODUCTION)
+        if self.kind not in CLAIM_KINDS:
+            raise ValueError(f"claim {self.id}: kind {self.kind!r} is not one of {CLAIM_KINDS}")
+        if self.beyond and self.kind == REPRODUCTION:
+            raise ValueError(f"claim {self.id} is beyond the paper: there is nothing of the paper's to reproduce")
 
 
 @dataclass
@@ -79,6 +94,18 @@ class Experiment:
         for claim in self.claims:
             if not claim.id.startswith(self.id + "."):
                 raise ValueError(f"claim {claim.id} does not belong to experiment {self.id}")
+
+
+def relabelled(experiments: Iterable[Experiment], kinds: dict[str, str]) -> tuple[Experiment, ...]:
+    """The experiments with the claims named in ``kinds`` (claim id → one of CLAIM_KINDS) given that
+    kind; an id no experiment has is an error. For claims declared in modules whose owners are busy
+    elsewhere: the kind belongs in the declaration when that module is next edited."""
+    experiments = tuple(experiments)
+    unknown = set(kinds) - {c.id for e in experiments for c in e.claims}
+    if unknown:
+        raise ValueError(f"no such claim(s) to relabel: {', '.join(sorted(unknown))}")
+    return tuple(replace(e, claims=tuple(replace(c, kind=kinds[c.id]) if c.id in kinds else c for c in e.claims))
+                 for e in experiments)
 
 
 def select(experiments: Iterable[Experiment], only: str | None) -> list[Experiment]:

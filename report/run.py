@@ -13,7 +13,18 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from report import machine, offline_pool, page
-from report.registry import LOCK_WAIT_KEY, MEASURED, VERDICTS, Context, Experiment, Figure, Finding, NotRun
+from report.registry import (
+    CLAIM_KINDS,
+    LOCK_WAIT_KEY,
+    MEASURED,
+    REPRODUCTION,
+    VERDICTS,
+    Context,
+    Experiment,
+    Figure,
+    Finding,
+    NotRun,
+)
 
 
 @dataclass
@@ -63,7 +74,7 @@ def claim_rows(outcome: Outcome, quick: bool) -> list[dict]:
     rows = []
     for claim in outcome.experiment.claims:
         row = {"id": claim.id, "experiment": outcome.experiment.id, "claim": claim.text, "paper": claim.paper,
-               "beyond": claim.beyond, "command": command_for(outcome.experiment, quick)}
+               "beyond": claim.beyond, "kind": claim.kind, "command": command_for(outcome.experiment, quick)}
         finding = outcome.findings.get(claim.id)
         if finding is not None:
             row.update(testbed=finding.testbed, verdict=finding.verdict, reason=finding.reason,
@@ -77,11 +88,33 @@ def claim_rows(outcome: Outcome, quick: bool) -> list[dict]:
 
 
 def summarise(rows: list[dict]) -> dict:
-    counts = Counter(r["verdict"] for r in rows)
+    """The headline: the verdicts of the reproductions only (claims compared with what the paper
+    states); the questions beyond the paper as MEASURED (only when there are some). Consistency and
+    input claims are counted apart (:func:`apart`)."""
+    counts = Counter(r["verdict"] for r in rows if r["kind"] == REPRODUCTION and not r["beyond"])
     tally = {v: counts.get(v, 0) for v in (*VERDICTS, "failed", "not run")}
-    if counts.get(MEASURED):  # questions beyond the paper (only when there are some)
-        tally[MEASURED] = counts[MEASURED]
+    measured = sum(r["verdict"] == MEASURED for r in rows)
+    if measured:
+        tally[MEASURED] = measured
     return tally
+
+
+def apart(rows: list[dict]) -> dict[str, dict[str, int]]:
+    """The verdicts of the claims of the paper that are not reproductions, per kind (consistency:
+    the testbed against itself; input: a value the model is given), only the kinds present."""
+    out: dict[str, dict[str, int]] = {}
+    for kind in CLAIM_KINDS:
+        counts = Counter(r["verdict"] for r in rows if r["kind"] == kind and kind != REPRODUCTION and not r["beyond"])
+        if counts:
+            out[kind] = {v: counts[v] for v in (*VERDICTS, "failed", "not run") if counts[v]}
+    return out
+
+
+def tally_text(summary: dict, kinds_apart: dict[str, dict[str, int]]) -> str:
+    """"3 yes, 1 no; apart: consistency 2 yes, input 1 yes" (zero counts left out)."""
+    head = ", ".join(f"{n} {v}" for v, n in summary.items() if n) or "no reproductions"
+    rest = "; ".join(f"{kind} " + ", ".join(f"{n} {v}" for v, n in c.items()) for kind, c in kinds_apart.items())
+    return head + (f"; apart: {rest}" if rest else "")
 
 
 def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: list[str],
@@ -105,7 +138,7 @@ def run_report(experiments: list[Experiment], out_dir: Path, quick: bool, argv: 
     def done(i: int, outcome: Outcome) -> None:
         outcome.experiment = experiments[i]
         rows = claim_rows(outcome, quick)
-        tally = ", ".join(f"{c} {v}" for v, c in summarise(rows).items() if c)
+        tally = tally_text(summarise(rows), apart(rows)) if rows else ""
         detail = f": {outcome.error.splitlines()[0]}" if outcome.error else ""
         progress(f"report: [{i + 1}/{n}] {outcome.experiment.id} {outcome.status} in {outcome.wall_s:.1f} s"
                  f" ({tally or 'no claims'}){detail}")
@@ -152,7 +185,8 @@ def _data(by_index: dict[int, Outcome], experiments: list[Experiment], quick: bo
         "offline_phase": offline_phase or None,
         "lock_wait_s": round(sum(sum(o.numbers.get(LOCK_WAIT_KEY, {}).values()) for o in outcomes), 1),
         "machine": {"before": machine_before, "after": machine.describe()},
-        "summary": summarise(rows),
+        "summary": summarise(rows),  # the headline: reproductions only
+        "summary_apart": apart(rows),  # consistency and input claims, counted apart
         "experiments": [{
             "id": o.experiment.id, "title": o.experiment.title, "paper_figure": o.experiment.paper_figure,
             "kind": o.experiment.kind, "scope": o.experiment.scope, "status": o.status, "error": o.error,
