@@ -1,0 +1,68 @@
+"""The weak-grid stability criterion of F7 and F9 (report/stability.py) on made-up V_pcc traces:
+damped to 1.0 = stable, damped to 0.6 = damped but not stable, a growing oscillation = neither; and
+the time V_pcc leaves the normal band for good (F9.d)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from report.stability import AWAY_S, PTP_DAMPED, V_NORMAL, of_run, stability, time_away
+
+T_EVENT = 1.0
+T = np.arange(0.0, 5.0, 1e-3)
+AFTER = np.clip(T - T_EVENT, 0.0, None)
+
+
+def _ringing(final: float, decay: float, amplitude: float = 0.2, hz: float = 3.0) -> np.ndarray:
+    """1.0 before the event, then ``final`` with an oscillation of ``amplitude`` growing (decay < 0)
+    or decaying (decay > 0) at ``hz``."""
+    osc = amplitude * np.exp(-decay * AFTER) * np.sin(2 * np.pi * hz * AFTER)
+    return np.where(T < T_EVENT, 1.0, final + osc)
+
+
+def test_damped_back_to_rated_is_stable():
+    s = stability(T, _ringing(1.0, decay=2.0, amplitude=0.3), T_EVENT)
+    assert s.damped and s.in_band and s.stable and s.state == "stable"
+    assert s.v_min < V_NORMAL[0] and s.t_away is None  # the first swings leave the band, then it is back
+
+
+def test_damped_at_a_low_voltage_is_damped_but_not_stable():
+    s = stability(T, _ringing(0.6, decay=4.0), T_EVENT)
+    assert s.damped and not s.in_band and not s.stable
+    assert s.state.startswith("damped at 0.60") and s.t_away == pytest.approx(T_EVENT, abs=0.01)
+
+
+def test_a_growing_oscillation_is_neither():
+    s = stability(T, _ringing(1.0, decay=-0.8, amplitude=0.03), T_EVENT)
+    assert s.ptp_last_s > PTP_DAMPED and not s.damped and not s.stable and s.state == "oscillating"
+    # it first swings out of the band once its amplitude passes 0.1 p.u., and keeps doing so: away from then on
+    first_out = T[(T > T_EVENT) & (np.abs(_ringing(1.0, decay=-0.8, amplitude=0.03) - 1.0) > 0.1)][0]
+    assert s.t_away == pytest.approx(first_out, abs=1e-9)
+
+
+def test_a_diverged_run_is_neither_and_says_so():
+    v = _ringing(1.0, decay=4.0)
+    v[-10:] = np.nan
+    s = of_run({"t": T, "v_pcc": v}, T_EVENT)
+    assert not s.damped and not s.in_band and not s.stable and "diverged" in s.describe()
+
+
+def test_above_the_band_is_not_stable_either():
+    assert not stability(T, _ringing(1.15, decay=4.0), T_EVENT).stable
+    assert stability(T, _ringing(V_NORMAL[1] - 0.01, decay=4.0, amplitude=0.0), T_EVENT).stable
+
+
+def test_time_away_ignores_the_dip_of_the_event_and_finds_the_later_deviation():
+    """Near normal until 3 s (a short dip at the event, back within 0.2 s), then it drifts down to 0.6."""
+    v = np.where(T < T_EVENT, 1.0, 1.0 - 0.2 * np.exp(-20 * AFTER))  # dip to 0.8, back in the band in ~0.035 s
+    v = np.where(T < 3.0, v, 1.0 - 0.4 * (1 - np.exp(-3 * (T - 3.0))))
+    t_away = time_away(T, v, T_EVENT)
+    assert t_away == pytest.approx(3.0 + np.log(0.4 / 0.3) / 3, abs=2e-3)  # where 1 − 0.4 (1 − e^−3τ) = 0.9
+
+
+def test_back_in_the_band_for_long_enough_is_not_away():
+    v = np.where((T > T_EVENT) & (T < 2.0), 0.7, 1.0)  # out of the band for 1 s, then back for 3 s
+    assert time_away(T, v, T_EVENT) is None
+    short = np.where((T > T_EVENT) & (T < T[-1] - AWAY_S / 2), 0.7, 1.0)  # back only for the last AWAY_S / 2
+    assert time_away(T, short, T_EVENT) == pytest.approx(T[T > T_EVENT][0])
