@@ -83,6 +83,13 @@ class ControllerBank:
         elif changes:
             self.pending_params.setdefault(slot, {}).update(changes)
 
+    def runtime_params(self, slot: int) -> dict[str, float]:
+        """The run-time parameters (h, d, m_q, v_ref, q_ref, supp) ``slot``'s controller steps with now
+        ({} for "hold"); a change made before its first measurement is in ``pending_params`` until then."""
+        if self.visc is None:
+            return {}
+        return {name: float(values[slot]) for name, values in self.visc.rp.items()}
+
     def take_over(self, slot: int) -> None:
         """Become the active controller of ``slot`` (warm state, if tracked, is kept)."""
         self.started[slot] = True

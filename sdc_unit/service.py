@@ -59,7 +59,7 @@ from sdvisc.config import ConfigError, SdcConfig, load_config
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.stats import delay_summary
-from sdvisc.vocabulary import REQUEST_PARAM_WORDS
+from sdvisc.vocabulary import REQUEST_PARAM_WORDS, params_from_mask
 from sdvisc.wire_batch import record_dtype
 
 HEARTBEAT_S = 0.01
@@ -207,8 +207,12 @@ class SdcService(MeasurementIntake):
             inst.counts["takeover_warm"] = int(self.bank.initialised[inst.slot])
         else:
             status = wire.Status.BAD_REQUEST
-        self.events.append({"t_wall": now, "type": "sdc_command", "cmd": wire.Command(cmd).name,
-                            "wt": inst.name, "status": status.name})
+        event = {"t_wall": now, "type": "sdc_command", "cmd": wire.Command(cmd).name, "wt": inst.name,
+                 "status": status.name}
+        if cmd == wire.Command.SET_PARAMS and status == wire.Status.OK:  # what was asked and what now steps
+            event.update(params=params_from_mask(params), in_effect=self.bank.runtime_params(inst.slot),
+                         pending=inst.slot in self.bank.pending_params)
+        self.events.append(event)
         self._answer(msg, status, wid, cmd, now)
 
     def _answer(self, msg: wire.Message, status: wire.Status, wid: int, cmd: int, now: float) -> None:
