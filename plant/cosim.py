@@ -84,9 +84,14 @@ def _events(plant, k: int, case: FaultCase) -> None:
         plant.fault(False)
 
 
-def run_hd(case: FaultCase = FaultCase()) -> dict[str, np.ndarray]:
-    """The hardware-dependent ViSC: traces (time x turbine) of v_pcc, q, delta and e_mag."""
+def run_hd(case: FaultCase = FaultCase(), visc_params: ViscParams | None = None) -> dict[str, np.ndarray]:
+    """The continuous ViSC law inside the plant (``hd_visc``) at the case's plant step with ``visc_params``
+    (default ``ViscParams()``, the SDC's own: the same law the SDC discretises, a consistency check; the
+    paper's HD reference is :func:`plant.hd_reference.run_reference`): traces (time x turbine) of v_pcc, q,
+    delta and e_mag."""
     plant, idx = _plant(case)
+    if visc_params is not None:
+        plant.set_visc_params(visc_params)
     plant.set_mode(idx, "hd_visc")
     rows = []
     for k in range(case.n_steps):
@@ -100,15 +105,16 @@ def run_hd(case: FaultCase = FaultCase()) -> dict[str, np.ndarray]:
 
 
 def run_sdc(case: FaultCase = FaultCase(), method: str = "tustin", dtype=np.float64,
-            delay_samples: int = 0, remote_apply: str = "v_ref") -> dict[str, np.ndarray]:
+            delay_samples: int = 0, remote_apply: str = "v_ref",
+            visc_params: ViscParams | None = None) -> dict[str, np.ndarray]:
     """The software-defined ViSC (``method``, ``dtype``) closing the loop through the plant's remote
     mode (``remote_apply``) with ``delay_samples`` of transport (the CTRL held at the turbine);
-    same traces as :func:`run_hd`, plus ``trips`` (per ViSC turbine) and ``trip_t`` (the first trip [s]
+    ``visc_params`` default ``ViscParams()``; same traces as :func:`run_hd`, plus ``trips`` (per ViSC turbine) and ``trip_t`` (the first trip [s]
     or NaN)."""
     plant, idx = _plant(case, remote_apply)
     plant.set_mode(idx, "remote")
     plant.set_remote_fallback(False)
-    ctrl = DiscreteVisc(len(idx), ViscParams(), ts=case.step_s, method=method, dtype=dtype)
+    ctrl = DiscreteVisc(len(idx), visc_params or ViscParams(), ts=case.step_s, method=method, dtype=dtype)
     ctrl.initialise(np.arange(len(idx)), _meas(plant, idx))
     last = ctrl.last
     refs = tuple(np.array(last[k], dtype=float) for k in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q"))
