@@ -1,5 +1,7 @@
 """The paper's farm set-ups (Section IV) on the offline 50-turbine plant, written once for the
-plant's tests and the paper report: the SDViSCs are the leftmost turbines of cluster 3 (index 20
+plant's tests and the paper report. Two arrangements: the comparison with the SC (F3–F7) has one
+aggregated 40 MVA SDViSC at the onshore PCC (``comparison_visc_plant``), as the SC; the farm cases
+(F8, F9, and the cluster variant of F3–F7) use the leftmost turbines of cluster 3 (index 20
 on) at P = 0 (a ViSC has T_m = 0: it starts from P = 0, the pitch sheds the wind), the SC out of
 service in the SDViSC cases, SCR 7.14 unless a grid key says otherwise. Here an SDViSC is the
 continuous law inside the plant (``hd_visc``); plant/cosim.py steps the discrete SDC instead."""
@@ -13,6 +15,7 @@ from plant.sim import Plant
 from sdc_unit.params import ViscParams
 
 FIRST_VISC = 20  # "the leftmost 4 wind turbines in Cluster 3"
+COMPARISON_UNIT = 50  # the onshore aggregated SDViSC: the first converter after the 50 farm turbines
 
 
 def visc_indices(n: int) -> np.ndarray:
@@ -33,6 +36,26 @@ def visc_plant(n: int = 4, visc_params: ViscParams | None = None, activate: bool
             plant.set_battery(idx, True)
         if activate:
             plant.set_mode(idx, "hd_visc")
+    return plant
+
+
+def comparison_visc_plant(visc_params: ViscParams | None = None, activate: bool = True, battery: bool = False,
+                          **grid) -> Plant:
+    """The paper's comparison arrangement (Section IV-A): one SDViSC of 40 MVA, four 10 MW turbine
+    converters aggregated as one equivalent with its own transformers, at the onshore PCC beside
+    the 50-turbine farm (all producing), the SC out of service. The unit is converter index
+    ``COMPARISON_UNIT`` (= 50, after the farm's turbines), at P = 0 (a ViSC has T_m = 0)."""
+    pp = _params(False, grid)
+    pp.onshore_units = 1
+    pp.visc_params = visc_params or ViscParams()
+    plant = Plant(pp)
+    idx = np.array([COMPARISON_UNIT])
+    plant.set_power_ref(idx, p=0.0)
+    plant.reinitialise()
+    if battery:
+        plant.set_battery(idx, True)
+    if activate:
+        plant.set_mode(idx, "hd_visc")
     return plant
 
 

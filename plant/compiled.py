@@ -101,7 +101,8 @@ class CompiledPath:
     def hold_slow(self, X, turbines) -> SlowTerms:
         """Evaluate the slow mechanical terms of state X (``TurbineBank.slow_terms``, compiled)."""
         rows = np.empty((len(Slow), self.n))
-        kernels.hold_slow_terms(X, self.constants, turbines.v_wind, turbines.mppt, turbines.p_cmd, turbines.q_cmd, rows)
+        kernels.hold_slow_terms(X, self.constants, turbines.v_wind, turbines.mppt, turbines.p_cmd,
+                                 turbines.q_cmd + turbines.q_wpp, rows)
         rows[Slow.battery_on] = turbines.battery
         held = SlowTerms(paero=rows[Slow.p_aero], pav=rows[Slow.p_avail], inv2hw=rows[Slow.inv_2hw],
                          db=rows[Slow.d_beta], dxb=rows[Slow.d_xbeta], any_batt=bool(turbines.battery.any()))

@@ -61,7 +61,12 @@ class Network:
         g = params.grid
         self.n = n_turbines
         self.sb = g.s_base_mva
-        self.k_t = params.turbine.s_rated_mva / self.sb  # turbine base -> network base (power/current)
+        self.n_farm = n_turbines - params.onshore_units  # the farm's turbines; the onshore units follow
+        if self.n_farm < 0:
+            raise ValueError(f"{params.onshore_units} onshore units but only {n_turbines} converters")
+        self.rating_mva = np.full(n_turbines, params.turbine.s_rated_mva)
+        self.rating_mva[self.n_farm:] = params.onshore_unit_mva
+        self.k_t = self.rating_mva / self.sb  # per converter: its own base -> network base (power/current)
         self.k_sc = params.condenser.s_rated_mva / self.sb
         self.plugged = np.ones(n_turbines, dtype=bool)
         self.scr = g.scr
@@ -75,7 +80,8 @@ class Network:
         n = n_turbines
         if self.topology == "farm":
             c = params.n_clusters
-            self.cluster_of = (np.arange(n) * c) // n
+            nf = self.n_farm
+            self.cluster_of = np.r_[(np.arange(nf) * c) // max(nf, 1), np.full(n - nf, -1)]  # -1: onshore unit
             self.cluster_nodes = n + np.arange(c)
             k = n + c
             self.os_mv, self.os_hv = k, k + 1
@@ -109,6 +115,14 @@ class Network:
     def z_sc_tr(self) -> complex:
         return complex(0.0, self.p.condenser.x_tr) / self.k_sc
 
+    def z_onshore_unit(self) -> complex:
+        """Series impedance from an onshore unit's terminal to the pcc (network base): its turbine
+        transformers in parallel (x_ttr on (S_unit / S_turbine) x s_ttr) and its step-up transformer."""
+        g, pp = self.p.grid, self.p
+        n_parallel = pp.onshore_unit_mva / pp.turbine.s_rated_mva
+        return (complex(g.r_ttr, g.x_ttr) * self.sb / (g.s_ttr_mva * n_parallel)
+                + complex(0.0, pp.x_onshore_step_up) * self.sb / pp.onshore_unit_mva)
+
     def z_ontr(self) -> complex:
         g = self.p.grid
         return complex(g.r_ontr, g.x_ontr) * self.sb / g.s_ontr_mva
@@ -140,6 +154,9 @@ class Network:
         z_ttr = complex(g.r_ttr, g.x_ttr) * self.sb / g.s_ttr_mva
         for k in range(n):
             if not self.plugged[k]:
+                continue
+            if k >= self.n_farm:  # onshore unit: its aggregated turbine transformers + its step-up, at the pcc
+                branch(k, self.pcc, self.z_onshore_unit())
                 continue
             to = self.cluster_nodes[self.cluster_of[k]] if self.topology == "farm" else self.pcc
             branch(k, int(to), z_ttr)

@@ -106,6 +106,14 @@ class TurbineParams:
     """Current-controller integral gain, p.u. voltage / (p.u. current * s) [src: D'Arco 2015 value; time in s assumed]."""
     i_max_gfl: float = 1.1
     """Grid-following current limit (circular), p.u. [assumed]."""
+    frt_v_dip: float = 0.9
+    """Fault ride-through: terminal voltage (PLL-frame V_d) below which additional reactive current is
+    injected, p.u. [src: IEC 61400-27-1 u_qdip = 0.9 (voltage-dip threshold of the Type 4 generic
+    model's Q control); VDE-AR-N 4120 dead band 10 %]."""
+    frt_k_qv: float = 2.0
+    """Fault ride-through gain k: additional reactive current per p.u. voltage below ``frt_v_dip``,
+    reactive-current priority while it acts; 0 disables FRT, p.u./p.u. [src: VDE-AR-N 4120:2018 / the
+    German grid code's default k = 2 (range 2-6); IEC 61400-27-1 K_qv]."""
     m_max: float = 1.15
     """Largest converter AC voltage per p.u. DC voltage (modulation limit), p.u./p.u. [assumed]."""
     kp_pll: float = 0.25
@@ -161,6 +169,33 @@ class TurbineParams:
 
 
 @dataclass
+class WppParams:
+    """The wind power plant's voltage controller at the PCC (plant/wpp.py): reactive droop voltage
+    control, one Q* for every grid-following farm turbine (p.u. on the turbine rating)."""
+
+    enabled: bool = True
+    """Plant-level voltage control in service [paper: the farm's turbines are the CIGRE C4.49
+    benchmark's, whose plant controller regulates the PCC; IEC 61400-27-1 WPP control]."""
+    v_ref: float = 1.0
+    """PCC voltage reference, p.u. [assumed: nominal]."""
+    droop: float = 0.04
+    """Reactive droop: V_pcc settles at v_ref - droop Q (Q of one turbine on its rating), p.u./p.u.
+    [assumed: grid codes ask for a slope of 2-7 % of the reactive range; ENTSO-E RfG Art. 21(3)(d)]."""
+    k_i: float = 10.0
+    """Integral gain, p.u. Q / (p.u. V s) [assumed: about 1 s to 90 % of a voltage step at SCR 7.14,
+    within the 1-5 s ENTSO-E RfG asks (Art. 21(3)(d)(iv))]."""
+    k_p: float = 0.0
+    """Proportional gain, p.u. Q / p.u. V [assumed: 0, an integral controller as IEC 61400-27-1's
+    WPP voltage control with K_PWPx = 0]."""
+    q_max: float = 0.33
+    """Reactive limit of each turbine's Q* (both signs), p.u. [src: ENTSO-E RfG / typical grid codes:
+    Q/P_max = 0.33 at full power (power factor 0.95)]."""
+    period_s: float = 0.0067
+    """Update period (a sampled plant controller): the plant's slow-term hold, s [assumed: 10 steps of
+    0.67 ms; IEC 61400-27-1 WPP control runs with a communication delay of 0.05-0.2 s, not modelled]."""
+
+
+@dataclass
 class CondenserParams:
     """40 MVAr synchronous condenser, p.u. on its own rating."""
 
@@ -202,8 +237,10 @@ class CondenserParams:
     """Field voltage floor, p.u. [assumed]."""
     m_q: float = 0.02
     """AVR reactive droop (V = V_ref - m_q Q, Q on SC rating), p.u./p.u. [paper: 0.02]."""
-    avr_bus: str = "pcc"
-    """Bus whose voltage the AVR regulates: "pcc" or "terminal" [assumed: "pcc", the paper plots the PCC]."""
+    avr_bus: str = "terminal"
+    """Bus whose voltage the AVR regulates: "terminal" (its own terminal with reactive droop m_q, as an
+    exciter with reactive-current compensation does) or "pcc" [src: IEEE Std 421.5 (the AVR senses the
+    generator terminal voltage, with load compensation); paper: "AVR droop coefficients are both 0.02"]."""
 
 
 @dataclass
@@ -255,6 +292,7 @@ class PlantParams:
     turbine: TurbineParams = field(default_factory=TurbineParams)
     condenser: CondenserParams = field(default_factory=CondenserParams)
     battery: BatteryParams = field(default_factory=BatteryParams)
+    wpp: WppParams = field(default_factory=WppParams)
     n_clusters: int = 5
     """Number of clusters, - [paper]."""
     v_wind: float = 12.0
@@ -265,3 +303,15 @@ class PlantParams:
     """"farm" (the 500 MW farm) or "single" (one turbine behind its transformer on an infinite bus)."""
     visc_params: object | None = None
     """sdc_unit.params.ViscParams for ``hd_visc`` turbines (None: ViscParams() when first needed)."""
+    onshore_units: int = 0
+    """Converter units at the onshore PCC, appended after the farm's turbines (indices n_farm ...), -
+    [paper, Section IV-A: "an SDViSC with the same capacity by aggregating four wind turbines [is]
+    connected to the onshore point of coupling"; 0 = none, 1 = the paper's comparison arrangement]."""
+    onshore_unit_mva: float = 40.0
+    """Rating of each onshore unit: four 10 MW turbine converters aggregated as one equivalent, MVA
+    [paper: "the same capacity" as the 40 MVAr SC]. Its per-unit parameters are the turbine's (n
+    identical units in parallel are one unit of n times the rating with the same per-unit values)."""
+    x_onshore_step_up: float = 0.10
+    """Onshore unit's 66/400 kV step-up transformer reactance on its rating, p.u. [assumed: the SC's
+    ``x_tr``, so the SDViSC and the SC reach the PCC through the same step-up]; in series with its
+    aggregated 0.69/66 kV turbine transformers (``GridParams.x_ttr`` on n x ``s_ttr_mva``)."""

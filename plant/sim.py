@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
+from scipy.optimize import brentq, root
 
 from plant import turbine as T
 from plant.commands import Commands
@@ -28,7 +29,10 @@ from plant.layout import GRID_ANGLE, GRID_PM, GRID_SPEED, PLL_ANGLE, StateLayout
 from plant.network import Network
 from plant.params import PlantParams
 from plant.slots import operating_values
+from plant.wpp import WppController
 from sdvisc.vocabulary import F_NOMINAL_HZ, OMEGA0
+
+WPP_SEARCH_STEP = 0.05  # p.u. Q: the plant controller's steady-state search walks in these steps
 
 
 class Plant(Commands, RightHandSide):
@@ -37,7 +41,7 @@ class Plant(Commands, RightHandSide):
     def __init__(self, params: PlantParams | None = None, n_turbines: int = 50, step_s: float = 0.67e-3,
                  substeps: int = 1, method: str = "etd2", slow_every: int = 10, jit: bool = True):
         self.params = params or PlantParams()
-        self.n = n = int(n_turbines)
+        self.n = n = int(n_turbines) + int(self.params.onshore_units)  # the farm's turbines, then the onshore units
         self.step_s = float(step_s)
         self.substeps = int(substeps)
         if method not in ("etd2", "rk2", "rk4"):
@@ -64,22 +68,64 @@ class Plant(Commands, RightHandSide):
         self.slow_every = max(1, int(slow_every))
         self._slow_keep = False
         self._slow_next = 0
+        # the plant's voltage controller at the PCC (the farm only: "single" is one turbine on a bus)
+        self.wpp = WppController(self.params.wpp) if self.params.wpp.enabled and self.params.topology == "farm" else None
+        self._wpp_mask = np.arange(n) < self.net.n_farm  # it orders the farm's turbines, not onshore units
         self._init_steady_state()
 
     # ================================================================== initialisation
-    def _init_steady_state(self) -> None:
+    def _load_flow(self):
+        """Fixed-point load flow of the present P*/Q* with every turbine a PQ source and the SC
+        unloaded: (turbine terminal voltages, turbine currents, every node voltage)."""
         n, net, g = self.n, self.net, self.params.grid
-        v = np.ones(n, dtype=complex)
-        vall = np.ones(net.n_nodes, dtype=complex)
-        for _ in range(200):
-            i = np.conj((self.tb.p_star(self.tb.wr0()) + 1j * self.tb.q_cmd) / v)
-            inj = net.injections(i, g.e_grid, vall[net.sc], 0.0)
-            vnew = net.solve(inj)
-            if np.max(np.abs(vnew - vall)) < 1e-13:
-                vall = vnew
-                break
-            vall = vnew
+        s_turbines = self.tb.p_star(self.tb.wr0()) + 1j * (self.tb.q_cmd + self.tb.q_wpp)
+
+        def node_voltages(vall):
             v = np.where(net.plugged, vall[:n], 1.0)
+            return net.solve(net.injections(np.conj(s_turbines / v), g.e_grid, vall[net.sc], 0.0))
+
+        def residual(x):
+            vall = x[:net.n_nodes] + 1j * x[net.n_nodes:]
+            r = node_voltages(vall) - vall
+            return np.r_[r.real, r.imag]
+
+        # Newton-type solve (the plain fixed point V = Z I(V) can cycle when the farm absorbs Q)
+        sol = root(residual, np.r_[np.ones(net.n_nodes), np.zeros(net.n_nodes)], method="hybr", tol=1e-14)
+        vall = sol.x[:net.n_nodes] + 1j * sol.x[net.n_nodes:]
+        if np.max(np.abs(residual(sol.x))) > 1e-10:
+            raise RuntimeError(f"the initial load flow did not converge ({sol.message})")
+        v = np.where(net.plugged, vall[:n], 1.0)
+        i = np.conj(s_turbines / v)
+        return v, i, vall
+
+    def _settle_wpp(self) -> None:
+        """The plant controller's steady-state order: Q* with |V_pcc| = v_ref - droop Q* (brentq on
+        the load flow), or its limit where none within the limits."""
+        wp = self.params.wpp
+
+        def mismatch(q: float) -> float:
+            self.tb.q_wpp[:] = q * self._wpp_mask
+            return abs(self._load_flow()[2][self.net.pcc]) - (wp.v_ref - wp.droop * q)
+
+        # the mismatch rises with q: walk from 0 towards the side that closes it until it changes sign
+        direction = 1.0 if mismatch(0.0) < 0.0 else -1.0
+        q_last, q = 0.0, 0.0
+        while True:
+            q = min(q + WPP_SEARCH_STEP, wp.q_max) if direction > 0 else max(q - WPP_SEARCH_STEP, -wp.q_max)
+            if mismatch(q) * direction > 0.0:
+                q = brentq(mismatch, min(q_last, q), max(q_last, q), xtol=1e-12)
+                break
+            if abs(q) >= wp.q_max:
+                break  # at its limit
+            q_last = q
+        self.tb.q_wpp[:] = q * self._wpp_mask
+        self.wpp.settle_at(q, self.t)
+
+    def _init_steady_state(self) -> None:
+        net, g = self.net, self.params.grid
+        if self.wpp is not None:
+            self._settle_wpp()
+        v, i, vall = self._load_flow()
         lay = self.layout
         self.X = np.zeros(self.size, dtype=complex)
         self.layout.turbines(self.X)[:] = self.tb.init_state(v, i)
@@ -120,7 +166,10 @@ class Plant(Commands, RightHandSide):
 
     def _hold_slow(self, after_command: bool) -> None:
         """Evaluate and hold the slow terms; after a command (or at the start) also hand the
-        compiled path the operating values (grid, condenser, load, AVR) the command may have changed."""
+        compiled path the operating values (grid, condenser, load, AVR) the command may have changed.
+        The plant's voltage controller (a sampled controller) updates its order here."""
+        if self.wpp is not None:
+            self.tb.q_wpp[:] = self.wpp.update(self.t, abs(self._v_pcc_last)) * self._wpp_mask
         if self._compiled is None:
             self.tb.hold_slow(self.layout.turbines(self.X))
             return
@@ -312,7 +361,7 @@ class Plant(Commands, RightHandSide):
             "v_os": abs(V[net.os_mv]),
             "v_sc": abs(V[net.sc]), "f_grid": float(self.X[lay.grid + GRID_SPEED].real),
             "p_grid": s_grid.real, "q_grid": s_grid.imag,
-            "p_wt": rec["p"], "q_wt": rec["q"], "i_wt": rec["i_mag"],
+            "p_wt": rec["p"], "q_wt": rec["q"], "i_wt": rec["i_mag"], "v_wt": np.abs(aux["v"]),
             "p_sc": s_sc.real, "q_sc": s_sc.imag, "i_sc": abs(i_sc),
             "sc_delta": xsc[DELTA], "sc_omega": xsc[OMEGA],
             "sc_e": abs(aux["e_sc"]) if net.sc_connected else 0.0, "sc_efd": xsc[EFD],

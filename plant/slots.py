@@ -28,6 +28,7 @@ def _slots(name: str, names: tuple[str, ...]) -> type[IntEnum]:
 TURBINE_GAINS = (
     "kpc", "kic", "lf", "rf", "w0_over_lf", "w0_rf_over_lf", "w0_kp_pll", "kp_pll", "ki_pll", "m_max",
     "v_dc_ref", "kp_dc", "ki_dc", "two_over_tau_dc", "p_me_min", "v_chop", "k_chop", "i_max_gfl",
+    "frt_v_dip", "frt_k_qv",
 )
 SLOW_CONSTANTS = (
     "v_wind_rated", "lambda_opt", "cp_opt", "p_me_max", "p_headroom", "omega_r_ref", "kp_beta", "beta_max",
@@ -71,7 +72,7 @@ def turbine_gains(tp) -> dict[str, float]:
         "w0_rf_over_lf": OMEGA0 / tp.lf * tp.rf, "w0_kp_pll": OMEGA0 * tp.kp_pll, "kp_pll": tp.kp_pll,
         "ki_pll": tp.ki_pll, "m_max": tp.m_max, "v_dc_ref": tp.v_dc_ref, "kp_dc": tp.kp_dc, "ki_dc": tp.ki_dc,
         "two_over_tau_dc": 2.0 / tp.tau_dc, "p_me_min": tp.p_me_min, "v_chop": tp.v_chop, "k_chop": tp.k_chop,
-        "i_max_gfl": tp.i_max_gfl,
+        "i_max_gfl": tp.i_max_gfl, "frt_v_dip": tp.frt_v_dip, "frt_k_qv": tp.frt_k_qv,
     }
 
 

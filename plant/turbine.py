@@ -92,7 +92,8 @@ class TurbineBank:
         self.mode = np.zeros(n, dtype=int)
         self.battery = np.zeros(n, dtype=bool)  # battery connected (set_battery)
         self.batt = BatteryBank(battery or BatteryParams(), params, n)
-        self.q_cmd = np.zeros(n)
+        self.q_cmd = np.zeros(n)  # local Q* (set_power_ref)
+        self.q_wpp = np.zeros(n)  # Q* added by the plant-level voltage controller (plant/wpp.py)
         self.p_cmd = np.zeros(n)
         self.mppt = np.ones(n, dtype=bool)  # grid-following P* from the MPPT curve (else p_cmd)
         self.v_hold = np.zeros(n, dtype=complex)
@@ -116,7 +117,7 @@ class TurbineBank:
         wr, beta = Sr[WR], Sr[B]
         pa = self.p_aero(wr, beta)
         pav = self.p_avail(pa)
-        sref = self.p_star(wr) - 1j * self.q_cmd
+        sref = self.p_star(wr) - 1j * (self.q_cmd + self.q_wpp)
         ew = wr - p.omega_r_ref
         bref_u = p.kp_beta * ew + Sr[XB]
         bref = np.maximum(np.minimum(bref_u, p.beta_max), 0.0)
@@ -153,8 +154,9 @@ class TurbineBank:
         rot = np.exp(1j * S[TH].real)
         vp = v * rot.conj()
         ev = laws.pll_error(vp.imag, v.real, v.imag)
-        sref = self.p_star(S[WR].real) - 1j * self.q_cmd
-        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl)) - i * rot.conj()
+        sref = self.p_star(S[WR].real) - 1j * (self.q_cmd + self.q_wpp)
+        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl, p.frt_v_dip,
+                                            p.frt_k_qv)) - i * rot.conj()
         vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot
         return vconv, e, ev
 
@@ -209,7 +211,7 @@ class TurbineBank:
         vp = v * rotc
         ev = laws.pll_error(vp.imag, v.real, v.imag)
         sref = sl["sref"]
-        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl))
+        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl, p.frt_v_dip, p.frt_k_qv))
         e -= i * rotc
         # d = v_conv - v; grid-following: j lf i + (kpc e + kic xi) e^{j theta}
         d = p.kpc * e

@@ -71,6 +71,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
     kp_dc, ki_dc, two_over_tau_dc = constants[Const.kp_dc], constants[Const.ki_dc], constants[Const.two_over_tau_dc]
     p_me_min, v_chop, k_chop = constants[Const.p_me_min], constants[Const.v_chop], constants[Const.k_chop]
     kpc, kic, i_max = constants[Const.kpc], constants[Const.kic], constants[Const.i_max_gfl]
+    v_dip, k_qv = constants[Const.frt_v_dip], constants[Const.frt_k_qv]
     j_lf = complex(0.0, constants[Const.lf])
     z_filter = complex(constants[Const.rf], constants[Const.lf])
     remote_i_ref = constants[Const.remote_i_ref] != 0.0
@@ -92,7 +93,8 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
             g = v_conv - v - j_lf_i
             e_i = 0j
         else:
-            i_ref_d, i_ref_q = gfl_current_ref(slow[Slow.s_ref_re, j], slow[Slow.s_ref_im, j], v_pll.real, i_max)
+            i_ref_d, i_ref_q = gfl_current_ref(slow[Slow.s_ref_re, j], slow[Slow.s_ref_im, j], v_pll.real, i_max,
+                                               v_dip, k_qv)
             e_i = complex(i_ref_d, i_ref_q) - i * to_pll
             g = (kpc * e_i + kic * X[XI * n + j]) * to_pll.conjugate()
             v_conv = v + j_lf_i + g

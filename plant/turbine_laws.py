@@ -29,15 +29,25 @@ def pll_error(vp_q, v_d, v_q):
     return vp_q / np.maximum(np.sqrt(v_d * v_d + v_q * v_q), V_PLL_FLOOR)
 
 
-def gfl_current_ref(s_re, s_im, vp_d, i_max):
-    """Grid-following current reference in the PLL frame, (i*_d, i*_q): (P* - j Q*) / V_d with
-    V_d >= 0.3 (``s_re``, ``s_im`` = P*, -Q*; ``vp_d`` = Re(v e^{-j theta})), scaled down to
-    |i*| <= i_max (circular limit)."""
+def gfl_current_ref(s_re, s_im, vp_d, i_max, v_dip, k_qv):
+    """Grid-following current reference in the PLL frame, (i*_d, i*_q).
+
+    Normal operation: (P* - j Q*) / V_d with V_d >= 0.3 (``s_re``, ``s_im`` = P*, -Q*; ``vp_d`` =
+    Re(v e^{-j theta})), scaled down to |i*| <= i_max keeping its angle (circular limit).
+    Fault ride-through (``vp_d`` < ``v_dip`` and ``k_qv`` > 0): an additional reactive current
+    k_qv (v_dip - V_d) (capacitive: i_q < 0 here, S = v conj(i)), reactive-current priority: i*_q
+    limited to i_max first, i*_d to what is left, sqrt(i_max^2 - i*_q^2). With ``k_qv`` = 0 or
+    ``vp_d`` >= ``v_dip`` the result is exactly the normal one."""
     vd = np.maximum(vp_d, V_D_FLOOR)
+    dip = np.maximum(v_dip - vp_d, 0.0) * k_qv  # the FRT's additional reactive current, p.u.
+    frt = dip > 0.0
     i_d = s_re / vd
-    i_q = s_im / vd
+    i_q = s_im / vd - dip
     scale = np.minimum(1.0, i_max / np.maximum(np.sqrt(i_d * i_d + i_q * i_q), 1e-9))
-    return i_d * scale, i_q * scale
+    i_q_frt = np.maximum(np.minimum(i_q, i_max), -i_max)
+    room = np.sqrt(np.maximum(i_max * i_max - i_q_frt * i_q_frt, 0.0))
+    i_d_frt = np.maximum(np.minimum(i_d, room), -room)
+    return i_d * scale * (1.0 - frt) + i_d_frt * frt, i_q * scale * (1.0 - frt) + i_q_frt * frt
 
 
 def modulation_limit(vc_re, vc_im, v_dc, m_max):

@@ -48,6 +48,7 @@ K_END = 300
 def _three(remote_apply: str, step_s: float = DT) -> Plant:
     pp = PlantParams()
     pp.turbine.remote_apply = remote_apply
+    pp.wpp.enabled = False  # the plant's voltage controller is sampled, outside the ODE (tests/unit/test_plant_wpp.py)
     # as in test_plant_ivp: the ViSC at P = 0 may motor and draw on the rotor, so that neither the
     # MSC clip nor the chopper (kinks the implicit reference solver cannot step across) acts
     pp.turbine.p_me_min = -1.0

@@ -117,7 +117,10 @@ def test_battery_plant_compiled_matches_numpy():
 
 
 def _weak(jit: bool) -> Plant:
-    p = Plant(n_turbines=50, jit=jit)
+    pp = PlantParams()
+    pp.wpp.enabled = False  # the turbines at their own limit, not the plant controller's (its tests: test_plant_wpp.py)
+    pp.turbine.frt_k_qv = 0.0  # P-priority limiting here; FRT's Q priority: test_plant_wpp.py
+    p = Plant(pp, n_turbines=50, jit=jit)
     p.set_scr(2.0)
     return p
 
