@@ -27,6 +27,7 @@ from sdvisc.vocabulary import MEAS_FIELDS, mask_of
 NAME = "f4_programmable_h"
 RECORD_EVERY = 5  # plant steps per recorded sample offline (3.35 ms)
 PRE_EVENT_S = 0.1  # the frequency before an event: its mean over this long before it
+END_MARGIN_S = 0.02  # an event window ends this long before the next event (its sample may already show it)
 
 
 def case() -> dict:
@@ -103,9 +104,11 @@ def run_hd(c: dict, switch: bool = True) -> dict[str, np.ndarray]:
 
 
 def event_windows(c: dict, t_end: float) -> list[tuple[float, float]]:
-    """Each load step's window: from it to the next one (or the end)."""
+    """Each load step's window, all as long as the shortest gap to the next step (or the end), less
+    END_MARGIN_S: the same length for each step (the periodograms' resolution), none sees the next."""
     starts = [t for t, _ in c["loads"]]
-    return list(zip(starts, starts[1:] + [t_end]))
+    length = min(b - a for a, b in zip(starts, starts[1:] + [t_end])) - END_MARGIN_S
+    return [(t0, t0 + length) for t0 in starts]
 
 
 def event_metrics(t: np.ndarray, f: np.ndarray, t0: float, t1: float) -> dict[str, float]:
