@@ -13,9 +13,10 @@ from report import figures, network_runs
 from report.exp_grid import GRID_INERTIA, _load_step
 from report.exp_parallel import M_Q, PAPER_V_BEFORE, _grid_emf_for
 from report.exp_sdc import COLLAPSE_DV
-from report.exp_weak import T_EVENT, _run_scr, f7_search_settings, search_boundary
-from report.plantcases import sc_plant, settling, t90, visc_indices, visc_plant
+from report.exp_weak import CRITERION, NET_CASE, T_EVENT, _run_at, f7_search_settings, search_boundary
+from report.plantcases import sc_plant, t90, visc_indices, visc_plant
 from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
+from report.stability import of_run
 from report.verdicts import change_close_to, close_to, holds, ordered
 from sdc_unit.params import ViscParams
 from sdvisc.config import GRID_SCENARIO_KEYS
@@ -192,7 +193,7 @@ def _scr_timeline(scr: float):
 def _f7net(ctx: Context) -> dict[str, Finding]:
     name = "f7_weak_grid_visc"
     t_end, xtol = f7_search_settings(ctx.quick)
-    b, _ = search_boundary("4 SDViSCs", t_end, xtol)
+    b, _ = search_boundary(NET_CASE, t_end, xtol)  # the scenario's case (cluster 3, no virtual friction)
     b_sc, _ = search_boundary("SC", t_end, xtol)
     if b.value is None:
         raise ValueError(f"the offline search found no SDViSC boundary ({b.note}): nothing to confirm")
@@ -201,12 +202,12 @@ def _f7net(ctx: Context) -> dict[str, Finding]:
     for side, scr in points.items():
         summary, ts = network_runs.run_variant(ctx, name, f"f7_weak_grid_visc_scr{scr:.3f}",
                                                {"timeline": _scr_timeline(scr), "duration_s": t_end})
-        net[side] = settling(ts, T_EVENT)
+        net[side] = of_run(ts, T_EVENT)
         runs[side] = (ts, summary)
-        off[side] = settling(_run_scr(lambda: visc_plant(4), scr, t_end), T_EVENT)
-    stable_above = net["above"].settled and _clean(runs["above"][1])
+        off[side] = of_run(_run_at(NET_CASE, scr, t_end), T_EVENT)
+    stable_above = net["above"].stable and _clean(runs["above"][1])
     below_sc = b_sc.value is None or points["above"] < b_sc.value
-    verdict = "yes" if stable_above and below_sc and not net["below"].settled else \
+    verdict = "yes" if stable_above and below_sc and not net["below"].stable else \
         "partly" if stable_above and below_sc else "no"
     fig, axes = figures.new(1)
     for side, style in (("above", "C0"), ("below", "C3")):
@@ -223,14 +224,14 @@ def _f7net(ctx: Context) -> dict[str, Finding]:
     return {"F7net.a": Finding(
         f"network: SCR {points['above']:.3f} {_stable(net['above'])}, SCR {points['below']:.3f} {_stable(net['below'])} "
         f"(offline boundary {b.value:.3f}, SC {'none' if b_sc.value is None else f'{b_sc.value:.3f}'})",
-        verdict, f"yes = through the network stable {F7_MARGIN_SCR} above the offline SDViSC boundary (itself below the "
+        verdict, f"{CRITERION}; yes = through the network stable {F7_MARGIN_SCR} above the offline SDViSC boundary (itself below the "
         f"SC's) and not stable {F7_MARGIN_SCR} below it; partly = only the first; {sides}",
         {"boundary_offline": b.value, "boundary_sc_offline": b_sc.value, "points": points,
          "network": {s: vars(x) for s, x in net.items()}, "offline": {s: vars(x) for s, x in off.items()}})}
 
 
 def _stable(s) -> str:
-    return "stable" if s.settled else "not stable"
+    return "stable" if s.stable else f"not stable ({s.state})"
 
 
 # ------------------------------------------------------------------------------------------- F8net

@@ -45,7 +45,7 @@ def test_every_registered_claim_has_a_kind_and_the_decided_ones_are_not_reproduc
     assert {i: kinds[i] for i in decided} == decided
     beyond = {c.id for e in EXPERIMENTS for c in e.claims if c.beyond}
     assert beyond and all(kinds[i] != REPRODUCTION for i in beyond)
-    assert kinds["F7.a"] == REPRODUCTION
+    assert kinds["F9.d"] == REPRODUCTION and kinds["F7.a"] == REPRODUCTION
 
 
 def test_relabelled_sets_the_kind_and_refuses_an_unknown_claim():
