@@ -8,9 +8,7 @@ documented parameters the test asserts what the physics gives and says so.
 import numpy as np
 import pytest
 
-from plant.cases import sc_plant, visc_plant
-from plant.params import PlantParams
-from plant.sim import Plant
+from plant.cases import COMPARISON_UNIT, bare_plant, comparison_visc_plant, sc_plant, visc_plant
 from sdc_unit.params import ViscParams
 
 VISC = np.arange(20, 24)  # the leftmost four turbines of cluster 3
@@ -24,24 +22,25 @@ def _t90(t, y, t0):
 
 
 def test_a_avr_step_visc_faster_than_sc():
+    """The comparison arrangement (both at the onshore PCC): each device's terminal rises by about the
+    paper's 0.035 (pinned in test_plant_wpp.py), the SDViSC faster; the PCC itself moves < 0.5 %."""
     p = sc_plant()
     ref0 = p.sc.v_ref
     r_sc = p.run_offline(6.0, events=[(1.0, lambda q: q.set_avr_ref(ref0 + 0.04))], record_every=10)
-    p = visc_plant()
+    p = comparison_visc_plant()
     vp = p.visc_params
     r_v = p.run_offline(3.0, events=[(1.0, lambda q: q.set_visc_params(vp.with_changes(v_ref=vp.v_ref + 0.04)))],
                         record_every=10)
-    t90_sc, t90_v = _t90(r_sc["t"], r_sc["v_pcc"], 1.0), _t90(r_v["t"], r_v["v_pcc"], 1.0)
-    dv_sc = r_sc["v_pcc"][-1] - r_sc["v_pcc"][0]
-    dv_v = r_v["v_pcc"][-1] - r_v["v_pcc"][0]
-    print(f"\nSC: V_pcc {r_sc['v_pcc'][0]:.4f} -> {r_sc['v_pcc'][-1]:.4f} (Q_sc {r_sc['q_sc'][-1]:.2f} p.u.,"
-          f" V_sc {r_sc['v_sc'][-1]:.4f}), t90 {t90_sc:.2f} s")
-    print(f"ViSC x4: V_pcc {r_v['v_pcc'][0]:.4f} -> {r_v['v_pcc'][-1]:.4f}, V_66kV {r_v['v_os'][0]:.4f} ->"
-          f" {r_v['v_os'][-1]:.4f} (Q {r_v['q_wt'][-1, VISC].mean():.3f} p.u. each), t90 {t90_v:.2f} s")
-    assert dv_sc > 0.005 and dv_v > 0.001, "both raise the PCC voltage"
+    v_t_sc, v_t_v = r_sc["v_sc"], r_v["v_wt"][:, COMPARISON_UNIT]
+    t90_sc, t90_v = _t90(r_sc["t"], v_t_sc, 1.0), _t90(r_v["t"], v_t_v, 1.0)
+    print(f"\nSC: V_t {v_t_sc[0]:.4f} -> {v_t_sc[-1]:.4f}, V_pcc {r_sc['v_pcc'][0]:.4f} -> {r_sc['v_pcc'][-1]:.4f}"
+          f" (Q_sc {r_sc['q_sc'][-1]:.2f} p.u.), t90 {t90_sc:.2f} s")
+    print(f"SDViSC 40 MVA: V_t {v_t_v[0]:.4f} -> {v_t_v[-1]:.4f}, V_pcc {r_v['v_pcc'][0]:.4f} -> {r_v['v_pcc'][-1]:.4f}"
+          f" (Q {r_v['q_wt'][-1, COMPARISON_UNIT]:.3f} p.u.), t90 {t90_v:.2f} s")
+    assert v_t_sc[-1] - v_t_sc[0] > 0.025 and v_t_v[-1] - v_t_v[0] > 0.025, "both raise their terminal"
     assert t90_v < 0.5 * t90_sc, "the ViSC regulates faster than the SC"
-    # paper: both settle near 1.035 p.u.; not reachable: 40 Mvar moves a 3570 MVA (SCR 7.14) PCC by ~1 %
-    assert dv_sc < 0.02
+    # 40 Mvar move a 3570 MVA (SCR 7.14) PCC by well under 1 % (and the plant controller holds it)
+    assert abs(r_sc["v_pcc"][-1] - r_sc["v_pcc"][0]) < 0.005 and abs(r_v["v_pcc"][-1] - r_v["v_pcc"][0]) < 0.005
 
 
 def test_b_parallel_droop_sharing():
@@ -54,8 +53,12 @@ def test_b_parallel_droop_sharing():
     share = q * (mq + x_t)
     print(f"\nV_pcc {r['v_pcc'][j0]:.4f} -> {r['v_pcc'][-1]:.4f}; V_66kV {r['v_os'][j0]:.4f} -> {r['v_os'][-1]:.4f}")
     print(f"Q = {np.round(q, 4)} p.u.; Q*m_q = {np.round(q * mq, 4)}; Q*(m_q + x_t) = {np.round(share, 4)}")
-    assert r["v_pcc"][-1] > r["v_pcc"][j0]
-    assert np.all(np.diff(q) < 0), "lower droop -> more reactive power"
+    # the plant controller holds the PCC on its droop line: the SDViSCs' Q replaces the farm's, the
+    # PCC moves by at most its droop x the farm order's change
+    assert abs(r["v_pcc"][-1] - r["v_pcc"][j0]) < 0.01
+    # the plant controller holds the farm's terminals above the SDViSCs' V* = 1: they absorb; the
+    # sharing is by droop all the same (|Q| falls with m_q)
+    assert np.all(np.diff(np.abs(q)) < 0), "lower droop -> more reactive power"
     # each ViSC regulates its own terminal, behind its own transformer x_t: Q_i ~ 1/(m_q,i + x_t)
     assert np.ptp(share) / share.mean() < 0.03
 
@@ -86,85 +89,35 @@ def test_c_fault_visc_limited_sc_several_pu():
 
 @pytest.mark.slow
 def test_d_weak_grid_ordering():
+    """SCR 7.14 -> 1.58 at 1 s (the paper's SC boundary), 5 s: without support the farm settles
+    below 0.9 p.u. (its plant controller at its reactive limit), with the SC or the 40 MVA SDViSC at
+    the PCC it returns into the band. (At 2.04 all three return: docs/plant.md, weak grid.)"""
     def run(p):
-        r = p.run_offline(3.0, events=[(1.0, lambda q: q.set_scr(2.04))], record_every=10)
-        return r["v_pcc"][-1], r["p_grid"][-1]
-    none = run(Plant(PlantParams(sc_connected=False)))
-    sc = run(sc_plant())
-    visc = run(visc_plant())
-    print(f"\nSCR 7.14 -> 2.04 at 1 s, V_pcc / P_grid at 3 s: none {none[0]:.3f}/{none[1]:.3f},"
-          f" SC {sc[0]:.3f}/{sc[1]:.3f}, 4 ViSC {visc[0]:.3f}/{visc[1]:.3f}")
-    assert none[0] < 0.8, "without support the farm cannot hold its voltage at SCR 2.04"
-    assert none[0] < sc[0] < visc[0], "the SC helps, the ViSCs help more"
-
-
-@pytest.mark.slow
-def test_e_load_step_battery():
-    def run(p, mw):
-        r = p.run_offline(4.0, events=[(1.0, lambda q: q.load_step(mw))], record_every=10)
-        return r["f_pcc_hz"].min() - 50.0, r["v_dc"][:, VISC].min()
-    g = dict(h_grid=5.0, s_grid_mva=1000.0)
-    sc = run(sc_plant(h_sc=4.0, **g), 100.0)
-    v = run(visc_plant(visc_params=ViscParams(h=4.0), **g), 100.0)
-    pb = visc_plant(visc_params=ViscParams(h=4.0), **g)
-    pb.set_battery(VISC, True)
-    vb = run(pb, 100.0)
-    print(f"\n100 MW, H=4: nadir SC {sc[0]:.3f} Hz, ViSC {v[0]:.3f} Hz (v_dc min {v[1]:.3f}),"
-          f" ViSC+battery {vb[0]:.3f} Hz (v_dc min {vb[1]:.3f})")
-    assert vb[1] > v[1] + 0.1, "the battery holds the DC link up"
-    assert vb[0] > v[0], "and the frequency nadir is shallower with the battery"
-
-
-def _load_step_nadir(p, mw, t_end=4.0):
-    """Frequency nadir of the PCC PLL [Hz] and initial RoCoF of the grid source [Hz/s] after +mw at 1 s."""
-    r = p.run_offline(t_end, events=[(1.0, lambda q: q.load_step(mw))], record_every=5)
-    t, fg = r["t"], (r["f_grid"] - 1.0) * 50.0
-    k = (t > 1.0) & (t < 1.1)
-    return r["f_pcc_hz"].min() - 50.0, np.polyfit(t[k], fg[k], 1)[0]
-
-
-@pytest.mark.slow
-def test_f_load_50mw_larger_visc_inertia_smaller_dip():
-    """Issue item f, first half: +50 MW load, ViSC H = 3 s vs 5 s (and the SC with H = 3 s).
-
-    Reproduced only as an ordering: the dip shrinks with H but by < 0.01 Hz, because the grid
-    source (5 s on 1000 MVA = 5000 MWs, assumed) dwarfs 4 x 10 MVA x H = 120-200 MWs and the law's
-    D = 90 (2H/D = 67 ms) makes the ViSC follow the grid frequency within a few cycles.
-    """
-    g = dict(h_grid=5.0, s_grid_mva=1000.0)
-    sc = _load_step_nadir(sc_plant(h_sc=3.0, **g), 50.0)
-    v3 = _load_step_nadir(visc_plant(visc_params=ViscParams(h=3.0), **g), 50.0)
-    v5 = _load_step_nadir(visc_plant(visc_params=ViscParams(h=5.0), **g), 50.0)
-    print(f"\n+50 MW: nadir SC H3 {sc[0]:.4f} Hz, ViSC H3 {v3[0]:.4f} Hz, ViSC H5 {v5[0]:.4f} Hz;"
-          f" RoCoF SC {sc[1]:.4f}, ViSC H3 {v3[1]:.4f}, H5 {v5[1]:.4f} Hz/s")
-    assert v5[0] > v3[0], "larger ViSC inertia: smaller frequency dip"
-    assert abs(v5[1]) < abs(v3[1]), "and a smaller initial RoCoF"
-    assert v5[0] - v3[0] < 0.01, "the effect is small with a 5000 MWs grid (see docstring)"
+        r = p.run_offline(5.0, events=[(1.0, lambda q: q.set_scr(1.58))], record_every=10)
+        last = r["t"] > 4.0
+        return r["v_pcc"][-1], np.ptp(r["v_pcc"][last])
+    none, sc, visc = run(bare_plant()), run(sc_plant()), run(comparison_visc_plant())
+    print(f"\nSCR 7.14 -> 1.58 at 1 s, V_pcc at 5 s / p-p over 4-5 s: none {none[0]:.3f}/{none[1]:.4f},"
+          f" SC {sc[0]:.3f}/{sc[1]:.4f}, SDViSC {visc[0]:.3f}/{visc[1]:.4f}")
+    assert none[0] < 0.9, "without support the farm cannot hold its voltage at SCR 1.58"
+    assert sc[0] > 0.9 and visc[0] > 0.9 and sc[1] < 0.02 and visc[1] < 0.02, "with either it returns"
 
 
 @pytest.mark.slow
 def test_e_scr_1p51_three_vs_four_visc():
-    """Issue item e: SCR 7.14 -> 1.51 at 1 s with 0, 3 and 4 ViSCs (SC out of service).
+    """Issue item e: SCR 7.14 -> 1.51 at 1 s with 0, 3 and 4 SDViSCs of cluster 3 (SC out), 5 s.
 
-    Paper: 3 ViSCs lose stability, 4 settle. Here: without ViSCs the farm oscillates (sustained);
-    4 ViSCs settle at V_pcc ~ 0.57; 3 ViSCs also settle, at a lower voltage (~ 0.44): the loss of
-    stability with 3 is not reproduced (see docs/plant.md).
-    """
+    Paper: 3 SDViSCs hold until about 3 s, then lose stability; 4 settle. Here: without SDViSCs the
+    farm settles below 0.9 p.u.; 3 and 4 both return into the band (4 higher in its lowest voltage):
+    the loss of stability with 3 is not reproduced (docs/plant.md; report F9)."""
     def run(n):
-        pp = PlantParams(sc_connected=False)
-        pp.visc_params = ViscParams()
-        p = Plant(pp)
-        if n:  # only the n ViSC turbines are taken to P = 0; the others keep producing
-            p.set_power_ref(VISC[:n], p=0.0)
-            p.reinitialise()
-            p.set_mode(VISC[:n], "hd_visc")
-        r = p.run_offline(4.0, events=[(1.0, lambda q: q.set_scr(1.51))], record_every=5)
-        last = r["t"] > 3.0
-        return r["v_pcc"][r["t"] > 1.0].min(), np.ptp(r["v_pcc"][last]), r["v_pcc"][-1], r["p_grid"][-1]
+        p = visc_plant(n) if n else bare_plant()
+        r = p.run_offline(5.0, events=[(1.0, lambda q: q.set_scr(1.51))], record_every=5)
+        last = r["t"] > 4.0
+        return r["v_pcc"][r["t"] > 1.0].min(), np.ptp(r["v_pcc"][last]), r["v_pcc"][-1]
     none, three, four = run(0), run(3), run(4)
-    for name, x in (("none", none), ("3 ViSC", three), ("4 ViSC", four)):
-        print(f"\nSCR 1.51, {name}: V_pcc min {x[0]:.3f}, peak-to-peak over 3-4 s {x[1]:.4f},"
-              f" V_pcc(4 s) {x[2]:.3f}, P_grid(4 s) {x[3]:.3f}", end="")
-    assert none[1] > 0.3, "without support: sustained oscillation"
-    assert four[1] < 1e-3, "four ViSCs: settles"
-    assert four[2] > three[2] and four[0] > three[0], "four ViSCs hold the voltage higher than three"
+    for name, x in (("none", none), ("3 SDViSC", three), ("4 SDViSC", four)):
+        print(f"\nSCR 1.51, {name}: V_pcc min {x[0]:.3f}, p-p over 4-5 s {x[1]:.4f}, V_pcc(5 s) {x[2]:.3f}", end="")
+    assert none[2] < 0.9, "without SDViSCs the farm settles below the band"
+    assert four[1] < 0.02 and four[2] > 0.9, "four SDViSCs: back in the band"
+    assert four[0] > three[0], "four hold the voltage higher in the transient than three"
