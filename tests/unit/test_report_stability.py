@@ -1,4 +1,5 @@
-"""The weak-grid stability criterion of F7 and F9 (report/stability.py) on made-up V_pcc traces:
+"""The weak-grid stability criterion of F7 and F9 (report/stability.py) on made-up V_pcc traces, and
+F7's and F9's verdicts on made-up values:
 damped to 1.0 = stable, damped to 0.6 = damped but not stable, a growing oscillation = neither; and
 the time V_pcc leaves the normal band for good (F9.d)."""
 
@@ -7,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from report.stability import AWAY_S, PTP_DAMPED, V_NORMAL, of_run, stability, time_away
+from report.stability import AWAY_S, PTP_DAMPED, V_NORMAL, Stability, of_run, stability, time_away
 
 T_EVENT = 1.0
 T = np.arange(0.0, 5.0, 1e-3)
@@ -66,3 +67,46 @@ def test_back_in_the_band_for_long_enough_is_not_away():
     assert time_away(T, v, T_EVENT) is None
     short = np.where((T > T_EVENT) & (T < T[-1] - AWAY_S / 2), 0.7, 1.0)  # back only for the last AWAY_S / 2
     assert time_away(T, short, T_EVENT) == pytest.approx(T[T > T_EVENT][0])
+
+
+# ------------------------------------------------------------------ F7 and F9 verdicts on made-up values
+def _state(t_away: float | None, v_end: float = 0.6) -> Stability:
+    return Stability(v_end=v_end, ptp_last_s=0.0, v_min=0.5, finite=True, t_away=t_away)
+
+
+def test_f9d_judges_the_time_away_by_the_ten_per_cent_rule():
+    from report.exp_weak import _f9d
+
+    others = {3: _state(None, 1.0)}
+    assert _f9d({0: _state(1.0), 3: _state(3.2)}, others).verdict == "yes"
+    assert _f9d({0: _state(1.0), 3: _state(2.2)}, others).verdict == "partly"  # 27 % early
+    assert _f9d({0: _state(1.0), 3: _state(1.02)}, others).verdict == "no"
+    never = _f9d({0: _state(1.0), 3: _state(None, 1.0)}, others)
+    assert never.verdict == "no" and never.measured["t_away_s"] is None and "does not leave" in never.testbed
+
+
+def test_f7c_yes_on_the_stable_boundary_partly_on_the_oscillation_only_one():
+    from report.exp_weak import F7_CONFIGS, SDVISC, VIRTUAL_FRICTION_DEFAULT, _f7c
+
+    main = SDVISC[VIRTUAL_FRICTION_DEFAULT]
+    ev = {n: "runs" for n in F7_CONFIGS}
+
+    def vals(visc_stable, visc_damped):
+        v = {n: {"stable": 2.0, "damped": 1.8} for n in F7_CONFIGS}
+        v[main] = {"stable": visc_stable, "damped": visc_damped}
+        return v
+
+    assert _f7c(vals(1.5, 1.4), ev).verdict == "yes"
+    assert _f7c(vals(2.5, 1.4), ev).verdict == "partly"
+    assert _f7c(vals(None, None), ev).verdict == "no"
+
+
+def test_a_boundary_above_the_unsupported_one_is_not_reproduced():
+    from report.boundary import Boundary
+    from report.exp_weak import _boundary_finding
+
+    damped = Boundary(1.5, (1.49, 1.51))
+    assert _boundary_finding(Boundary(1.6, (1.59, 1.61)), damped, 1.58, "runs").verdict == "yes"
+    assert _boundary_finding(Boundary(1.6, (1.59, 1.61)), damped, 1.58, "runs", below=1.55).verdict == "no"
+    none = _boundary_finding(Boundary(None, None, note="no change"), damped, 1.58, "runs")
+    assert none.verdict == "no" and "oscillation only: 1.500" in none.testbed
