@@ -44,6 +44,13 @@ LABEL = "HD ViSC (continuous law, converter's current loop k_pc 1.27, 50 µs)"
 """How figures and texts name the reference."""
 
 
+def simulator_steps_per_sample(ts_s: float) -> int:
+    """Plant steps per SDC sample that put the plant of an SDC run at about HD_STEP_S (0.67 ms → 13, a
+    51.5 µs step): the SDC sampled every Ts while the plant runs at a simulator's step, as the paper's
+    SDC drove RTDS (``FaultCase.plant_steps_per_sample``)."""
+    return max(1, round(ts_s / HD_STEP_S))
+
+
 def reference_visc_params(base: ViscParams | None = None) -> ViscParams:
     """``base`` (default ``ViscParams()``) with the converter's own current loop: TurbineParams ``kpc``,
     ``kic`` [src: D'Arco, Suul, Fosso EPSR 2015]; every other law parameter is the SDC's."""

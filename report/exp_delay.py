@@ -8,13 +8,16 @@ sample drives the next plant step). The delay is added in one direction; a delay
 MEAS and the CTRL both cross counts twice (the loop sees the sum). Both arrangements of the remote
 mode: ``v_ref`` (the SDC closes the inner current loop, as the paper's SDC outputs the modulation
 signals) and ``i_ref`` (the SDC sends the limited current reference, the converter keeps its own
-current loop); see docs/sdc.md, ``remote_apply``."""
+current loop); see docs/sdc.md, ``remote_apply``. Every run is compared with the HD reference
+(plant/hd_reference.py: the continuous law with the converter's current loop at 50 µs) at the SDC's
+sample instants."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from plant.cosim import FaultCase, compare, run_hd, run_sdc, samples_for_delay
+from plant import hd_reference
+from plant.cosim import FaultCase, compare, run_sdc, samples_for_delay
 from report import figures
 from report.beyond import ACCEPT_PCT, UNSTABLE_CRITERION, crossing, instability, worst_pct
 from report.registry import MEASURED, Context, Experiment, Finding, PaperClaim
@@ -45,12 +48,13 @@ def _case(quick: bool) -> FaultCase:
 
 
 def sweep(case: FaultCase, hd: dict, delays_ms, option: str) -> list[dict]:
-    """One run per added delay (ascending, the first 0): errors vs the HD ViSC and vs this arrangement's
-    own run without added delay, the instability (None if stable), the |V_pcc| trace."""
+    """One run per added delay (ascending, the first 0): errors vs the HD reference ``hd`` (taken at the
+    SDC's sample instants, ``hd_reference.reference_on_samples``) and vs this arrangement's own run without
+    added delay, the instability (None if stable), the |V_pcc| trace at the sample instants."""
     points, base = [], None
     for d in delays_ms:
         n = samples_for_delay(d * 1e-3, case.step_s)
-        r = run_sdc(case, method="tustin", delay_samples=n, remote_apply=option)
+        r = hd_reference.on_samples(run_sdc(case, method="tustin", delay_samples=n, remote_apply=option), case)
         base = r if base is None else base
         cmp, own = compare(r, hd), compare(r, base)
         why = instability(r["t"], r["v_pcc"][:, 0], hd["v_pcc"][:, 0], r["trips"], r["trip_t"])
@@ -108,7 +112,7 @@ def _evidence(points: list[dict]) -> str:
 def _b1(ctx: Context) -> dict[str, Finding]:
     case = _case(ctx.quick)
     delays = QUICK_DELAYS_MS if ctx.quick else DELAYS_MS + EXTRA_MS
-    hd = run_hd(case)
+    hd = hd_reference.reference_on_samples(case)
     runs = {opt: sweep(case, hd, delays, opt) for opt in OPTIONS}
     lims = {opt: limits(pts) for opt, pts in runs.items()}
     ctx.numbers["delay_sweep"] = {opt: [{k: v for k, v in p.items() if k != "v_pcc"} for p in pts]
@@ -121,10 +125,12 @@ def _b1(ctx: Context) -> dict[str, Finding]:
         "(the answer to a sample drives the next plant step). Added in one direction: a link delay crossed by MEAS "
         "and CTRL counts twice.",
         f"Within = worst RMS deviation of |V_pcc|, Q, δ, E / range of the HD trace ≤ {ACCEPT_PCT:g} % over "
-        f"0–{case.t_end_s:g} s, and stable. {UNSTABLE_CRITERION}",
-        "i_ref without added delay is not the HD ViSC: the converter's own current loop (plant k_pc 1.27) tracks the "
-        "limited reference instead of the ViSC's (k_pc 0.13), so the post-fault swing differs (δ settles by ≈ 1.9 s, "
-        "without the HD's dip at ≈ 2.3 s); its own no-delay run is the second reference.",
+        f"0–{case.t_end_s:g} s, and stable; the HD reference: {hd_reference.LABEL} (plant/hd_reference.py), taken "
+        f"at the SDC's sample instants. {UNSTABLE_CRITERION}",
+        "i_ref without added delay is not the HD reference either: the converter's loop of the remote mode is "
+        "proportional only (v_conv = v + (r_f + j l_f) i_ref + k_pc (i_ref − i)), not the law's PI (no integral "
+        "ξ), and it tracks a reference sampled every Ts (δ "
+        f"{runs['i_ref'][0]['pct']['delta']:.1f} % of the HD range); its own no-delay run is the second reference.",
     ]
     _figure_errors(ctx, runs, lims, case)
     _figure_traces(ctx, runs, lims, hd, case)
@@ -194,7 +200,7 @@ def _figure_traces(ctx: Context, runs: dict, lims: dict, hd: dict, case: FaultCa
                   lim["unstable"].first_bad, pts[-1]["delay_ms"]}
         shown = [p for p in pts if p["delay_ms"] in wanted]
         ax.axvspan(case.t_fault_s, case.t_clear_s, **figures.FAULT_SHADE)
-        ax.plot(hd["t"], hd["v_pcc"][:, 0], "k", lw=1.8, label="HD ViSC")
+        ax.plot(hd["t"], hd["v_pcc"][:, 0], "k", lw=1.8, label="HD reference (50 µs, at the SDC's samples)")
         for i, p in enumerate(shown):
             state = f" ({p['unstable'].split(':')[0]})" if p["unstable"] else ""
             ax.plot(hd["t"], p["v_pcc"], color=f"C{i}", lw=1.0, ls=("--", "-", ":", "-.")[i % 4],
