@@ -69,7 +69,7 @@ def _f4h(ctx: Context) -> dict[str, Finding]:
         f"H's effect = the second step's dip with H changed minus the same with H {c['h_before']:g} s kept (the two "
         "steps start from different operating points: the first step's governor response still settling, 100 MW "
         f"in total), clear = ≥ {CLEAR:.0%} of the dip; dip = lowest f_pcc − its mean over the "
-        f"{ph.PRE_EVENT_S:g} s before. Offline, the SDC's controller bank (Tustin, one sample of round trip) with "
+        f"{ph.PRE_EVENT_S:g} s before (to {ph.END_MARGIN_S * 1000:g} ms before). Offline, the SDC's controller bank (Tustin, one sample of round trip) with "
         f"its set_params at {c['t_set']:g} s; the continuous law (hd_visc, Plant.set_visc_params) gives "
         f"{hd_gain:+.4f} Hz. Why so small: {_why(c, first)}",
         {"dip_before_hz": first["dip_hz"], "dip_after_hz": after["dip_hz"], "dip_h_kept_hz": kept["dip_hz"],
@@ -142,7 +142,8 @@ def _f4hnet(ctx: Context) -> dict[str, Finding]:
     applied = [e for e in sdc_record(ctx.out_dir / "runs" / ph.NAME)
                if e.get("status") == "OK" and not e.get("pending") and e.get("in_effect", {}).get("h") == c["h_after"]]
     who = sorted({e["wt"] for e in applied})
-    delay_ms = [1000.0 * (e["t_wall"] - c["t_set"]) for e in applied]
+    t0 = summary["t0_wall"]  # the SDC stamps its records on the run's clock: t = t_wall − t0_wall
+    delay_ms = [1000.0 * (e["t_wall"] - t0 - c["t_set"]) for e in applied]
     trips, fallbacks = summary.get("converter_trips") or {}, summary.get("fallbacks") or {}
     k = summary.get("time", {}).get("time_scale")
     a = Finding(

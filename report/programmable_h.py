@@ -27,7 +27,7 @@ from sdvisc.vocabulary import MEAS_FIELDS, mask_of
 NAME = "f4_programmable_h"
 RECORD_EVERY = 5  # plant steps per recorded sample offline (3.35 ms)
 PRE_EVENT_S = 0.1  # the frequency before an event: its mean over this long before it
-END_MARGIN_S = 0.02  # an event window ends this long before the next event (its sample may already show it)
+END_MARGIN_S = 0.02  # a window ends this long before the next event (its sample may already show it)
 
 
 def case() -> dict:
@@ -113,10 +113,11 @@ def event_windows(c: dict, t_end: float) -> list[tuple[float, float]]:
 
 def event_metrics(t: np.ndarray, f: np.ndarray, t0: float, t1: float) -> dict[str, float]:
     """What a load step at ``t0`` did to the PCC frequency ``f`` [Hz] until ``t1``: the nadir (lowest
-    f − 50 Hz), the dip (lowest f − the mean over PRE_EVENT_S before t0), when the lowest point came
+    f − 50 Hz), the dip (lowest f − the mean over PRE_EVENT_S before t0, less the END_MARGIN_S just
+    before it: an offline step is applied half a plant step early and recorded there), when the lowest point came
     (after t0) and the dominant oscillation frequency: the largest peak of the zero-padded
     periodogram of the detrended frequency over the window (as F4)."""
-    before = (t >= t0 - PRE_EVENT_S) & (t < t0)
+    before = (t >= t0 - PRE_EVENT_S) & (t < t0 - END_MARGIN_S)  # a sample just before t0 may show the step
     inside = (t >= t0) & (t < t1)
     tw, fw = t[inside], f[inside]
     low = int(np.argmin(fw))
