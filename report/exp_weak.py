@@ -30,9 +30,9 @@ CRITERIA = {"stable": lambda s: s.stable, "damped": lambda s: s.damped}  # the t
 # Virtual friction (eq. 4, ViscParams.supp; the gains are PARAMETERS.md's assumed ones) is what the paper
 # designs for damping in weak grids. The paper's cases run without it here because it did not help:
 # it raised F7's SDViSC boundary every time it was measured (2026-12-02, 4 SDViSCs of cluster 3 on
-# unity-power-factor turbines: oscillation-only 1.40 → 2.51; 2026-12-03 --quick on 95d7208's plant, the
-# 40 MVA comparison unit: 2.10 → 2.24) and prolonged F9's oscillation. Both settings are run and
-# reported, so a change shows; flip this if the other one comes out better.
+# unity-power-factor turbines: oscillation-only 1.40 → 2.51; 2026-12-03 on 95d7208's plant, the 40 MVA
+# comparison unit: stable 2.10 → 2.24 with --quick, 1.475 → 1.533 in full) and prolonged F9's oscillation.
+# Both settings are run and reported, so a change shows; flip this if the other one comes out better.
 VIRTUAL_FRICTION_DEFAULT = False
 FRICTION = {False: "without virtual friction", True: "with virtual friction"}
 

@@ -1,7 +1,6 @@
-"""The weak-grid stability criterion of F7 and F9 (report/stability.py) on made-up V_pcc traces, and
-F7's and F9's verdicts on made-up values:
-damped to 1.0 = stable, damped to 0.6 = damped but not stable, a growing oscillation = neither; and
-the time V_pcc leaves the normal band for good (F9.d)."""
+"""The weak-grid stability criterion of F7 and F9 (report/stability.py) on made-up V_pcc traces —
+damped to 1.0 = stable, damped to 0.6 = damped but not stable, a growing oscillation = neither; the
+time V_pcc leaves the normal band for good (F9.d) — and F7's and F9's verdicts on made-up values."""
 
 from __future__ import annotations
 
