@@ -65,14 +65,15 @@ def realised_instant(t_s: float, step_s: float) -> float:
 
 
 def reference_case(case: FaultCase) -> FaultCase:
-    """The HD reference's case for comparison with a run of ``case``: the same farm, ViSC turbines and
-    end, the plant at HD_STEP_S, fault and clearance at the first HD step at or after the instants
+    """The HD reference's case for comparison with a run of ``case``: the same farm and ViSC turbines, an
+    end at or after the run's last row (3 s at 0.67 ms: 3.0003 s), the plant at HD_STEP_S, fault and clearance at the first HD step at or after the instants
     ``case``'s plant applies them."""
     def on_hd_grid(t_s: float) -> float:
         return math.ceil(realised_instant(t_s, case.plant_step_s) / HD_STEP_S - 1e-6) * HD_STEP_S
 
+    last = math.ceil(case.n_steps * case.plant_step_s / HD_STEP_S - 1e-6) * HD_STEP_S  # covers the run's last row
     return replace(case, step_s=HD_STEP_S, plant_steps_per_sample=1, t_fault_s=on_hd_grid(case.t_fault_s),
-                   t_clear_s=on_hd_grid(case.t_clear_s))
+                   t_clear_s=on_hd_grid(case.t_clear_s), t_end_s=last)
 
 
 @lru_cache(maxsize=4)

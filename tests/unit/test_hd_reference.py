@@ -35,8 +35,11 @@ def test_the_reference_is_the_law_with_the_converters_current_loop_at_50_us():
 
 def test_the_reference_applies_the_events_where_the_sdc_runs_plant_does():
     ref = hd.reference_case(FaultCase())  # 0.67 ms grid: fault at 1.00031 s, clearance at 1.2998 s
-    assert ref.plant_step_s == 50e-6 and ref.n_steps == 40000
+    assert ref.plant_step_s == 50e-6 and ref.n_steps == 39999  # to the run's last row, 1.99995 s
     assert ref.t_fault_s == pytest.approx(1.00035) and ref.t_clear_s == pytest.approx(1.2998)
+    long = FaultCase(t_end_s=3.0)  # its last sample 4478 × 0.67 ms = 3.00026 s: the reference covers it
+    assert hd.reference_case(long).t_end_s == pytest.approx(3.0003)
+    assert len(hd.on_samples(run_sdc(replace(SMALL, t_end_s=3.0e-3)), SMALL)["t"]) == 4
     ref = hd.reference_case(FaultCase(step_s=0.25e-3))  # on both grids
     assert (ref.t_fault_s, ref.t_clear_s) == (pytest.approx(1.0), pytest.approx(1.3))
 
@@ -54,7 +57,7 @@ def test_halving_the_reference_step_changes_it_by_less_than_a_tenth_of_a_percent
     ref_case = hd.reference_case(SMALL)
     at_50 = run_hd(ref_case, hd.reference_visc_params())
     at_25 = run_hd(replace(ref_case, step_s=25e-6), hd.reference_visc_params())
-    assert at_50["q"].shape == (7000, 2) and at_25["q"].shape == (14000, 2)
+    assert at_50["q"].shape == (6995, 2) and at_25["q"].shape == (13990, 2)
     assert np.ptp(at_50["q"]) > 0.5  # a real disturbance
     change = compare(hd.on_samples(at_50, SMALL), hd.on_samples(at_25, SMALL))
     assert _worst(change) < 0.1, change  # measured 0.056 % (b23ef55)
