@@ -111,6 +111,9 @@ class Commands:
         _, _, aux = self._eval_cached()
         S = self.layout.turbines(self.X)
         code = T.MODES[mode]
+        if code != T.GFL:  # the machine side takes the DC link over from the grid side: its PI from P_me now
+            from_gfl = idx[self.tb.mode[idx] == T.GFL]
+            S[T.XD, from_gfl] = aux["pme"][from_gfl]
         if code == T.GFL:
             self.tb.bumpless_gfl(S, aux["v"], idx, aux["vconv"][idx])
         elif code == T.REMOTE:

@@ -154,8 +154,11 @@ class TurbineBank:
         rot = np.exp(1j * S[TH].real)
         vp = v * rot.conj()
         ev = laws.pll_error(vp.imag, v.real, v.imag)
-        sref = self.p_star(S[WR].real) - 1j * (self.q_cmd + self.q_wpp)
-        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl, p.frt_v_dip,
+        vdc = np.sqrt(np.maximum(S[W].real, 1e-4))
+        e_dc = vdc - p.v_dc_ref  # the grid side's DC-voltage PI (grid-following: it holds the DC link)
+        p_gsc = np.maximum(np.minimum(p.kp_dc * e_dc + S[XD].real, p.p_me_max), p.p_me_min)
+        q_star = self.q_cmd + self.q_wpp
+        e = _complex(*laws.gfl_current_ref(p_gsc, -q_star, vp.real, p.i_max_gfl, p.frt_v_dip,
                                             p.frt_k_qv)) - i * rot.conj()
         vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot
         return vconv, e, ev
@@ -177,10 +180,10 @@ class TurbineBank:
         sl = self.slow if self.slow is not None else self.slow_terms(S)
         if any_ext is None:
             any_ext = bool(ext_mask.any())
-        vconv, d, e, ev, lim, vdc = self._grid_side(S, v, vconv_ext, ext_mask, any_ext, sl)
+        vconv, d, e, ev, lim, vdc, dc = self._grid_side(S, v, vconv_ext, ext_mask, any_ext, sl)
         i = S[IF]
         pconv = (vconv * i.conj()).real
-        pme, dxd, p_dc, pbatt, ibatt = self._machine_side(S, vdc, pconv, sl)
+        pme, dxd, p_dc, pbatt, ibatt = self._machine_side(S, vdc, pconv, sl, dc)
         dS = np.empty_like(S) if out is None else out
         dSr = dS.real
         dS.imag[TH:] = 0.0  # real rows
@@ -210,8 +213,9 @@ class TurbineBank:
         np.negative(rotc.imag, out=rotc.imag)
         vp = v * rotc
         ev = laws.pll_error(vp.imag, v.real, v.imag)
-        sref = sl["sref"]
-        e = _complex(*laws.gfl_current_ref(sref.real, sref.imag, vp.real, p.i_max_gfl, p.frt_v_dip, p.frt_k_qv))
+        vdc = np.sqrt(np.maximum(S.real[W], 1e-4))
+        dc = self.dc_control(S, vdc, sl)
+        e = _complex(*laws.gfl_current_ref(dc[0], sl["sref"].imag, vp.real, p.i_max_gfl, p.frt_v_dip, p.frt_k_qv))
         e -= i * rotc
         # d = v_conv - v; grid-following: j lf i + (kpc e + kic xi) e^{j theta}
         d = p.kpc * e
@@ -221,18 +225,24 @@ class TurbineBank:
         if any_ext:
             d = np.where(ext_mask, vconv_ext - v, d)
         vconv = v + d
-        vdc = np.sqrt(np.maximum(S.real[W], 1e-4))
         vc_re, vc_im, lim = laws.modulation_limit(vconv.real, vconv.imag, vdc, p.m_max)
         if lim.any():
             vconv = _complex(vc_re, vc_im)
             d = vconv - v
-        return vconv, d, e, ev, lim, vdc
+        return vconv, d, e, ev, lim, vdc, dc
 
-    def _machine_side(self, S, vdc, pconv, sl):
-        """DC-voltage PI with the MSC power clip, battery and chopper: (P_me, dx_d/dt, net power into
-        the DC link, P_batt, battery current i_b)."""
+    def dc_control(self, S, vdc, sl):
+        """(P*_gsc, P_me, dx_d/dt): the grid side holds the DC link when grid-following, else the
+        machine side (``turbine_laws.dc_link_control``)."""
         p = self.p
-        pme, dxd = laws.msc_power(p.v_dc_ref - vdc, S.real[XD], sl["pav"], p.kp_dc, p.ki_dc, p.p_me_min)
+        return laws.dc_link_control((self.mode == GFL) * 1.0, vdc, S.real[XD], sl["sref"].real, sl["pav"],
+                                    p.v_dc_ref, p.kp_dc, p.ki_dc, p.p_me_min, p.p_me_max)
+
+    def _machine_side(self, S, vdc, pconv, sl, dc):
+        """The machine side (``dc``: dc_control's result), battery and chopper: (P_me, dx_d/dt, net power
+        into the DC link, P_batt, battery current i_b)."""
+        p = self.p
+        _, pme, dxd = dc
         pbatt = ibatt = 0.0
         if sl["any_batt"]:
             ibatt = self.batt.current(vdc, self.battery)
@@ -252,8 +262,8 @@ class TurbineBank:
         vconv = v + (p.rf + 1j * p.lf) * i
         S[XI] = p.rf * i * np.exp(-1j * th) / p.kic
         S[W] = p.v_dc_ref**2
-        pconv = (vconv * i.conj()).real
-        S[XD] = pconv
+        pconv = (vconv * i.conj()).real  # = P_me: the machine side follows it, the DC link in balance
+        S[XD] = (v * i.conj()).real  # the grid side's DC-voltage PI: P* = the terminal power at v_dc = 1
         wr0 = self.wr0()
         S[WR] = wr0
         # pitch: bisection for P_aero(1, beta) = pconv (beta >= 0)
@@ -269,7 +279,8 @@ class TurbineBank:
         return S
 
     def bumpless_gfl(self, S, v, idx, vconv_now):
-        """Switch turbines idx to grid-following keeping v_conv continuous (P* = present P, Q* = 0)."""
+        """Switch turbines idx to grid-following keeping v_conv continuous (P* = present P, Q* = 0; the
+        grid side takes over the DC link from the machine side, which then follows P* = present P)."""
         p = self.p
         i = S[IF, idx]
         s_now = v[idx] * i.conj()
@@ -277,6 +288,9 @@ class TurbineBank:
         self.mppt[idx] = False
         self.q_cmd[idx] = 0.0
         self.mode[idx] = GFL
+        # the grid side takes over the DC link: its PI's integrator set so that P*_gsc = the present P
+        vdc = np.sqrt(np.maximum(S[W, idx].real, 1e-4))
+        S[XD, idx] = s_now.real - p.kp_dc * (vdc - p.v_dc_ref)
         vconv_gfl, e, _ = self.gfl_vconv(S, v)
         rot = np.exp(1j * S[TH, idx].real)
         S[XI, idx] = ((vconv_now - v[idx] - 1j * p.lf * i) * rot.conj() - p.kpc * e[idx]) / p.kic

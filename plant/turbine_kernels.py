@@ -32,6 +32,7 @@ gfl_current_ref = njit(**_OPTS)(laws.gfl_current_ref)
 modulation_limit = njit(**_OPTS)(laws.modulation_limit)
 msc_power = njit(**_OPTS)(laws.msc_power)
 dc_link_power = njit(**_OPTS)(laws.dc_link_power)
+dc_link_control = njit(**_OPTS)(laws.dc_link_control)
 cell_ocv = njit(**_OPTS)(laws.cell_ocv)
 battery_current = njit(**_OPTS)(laws.battery_current)
 
@@ -70,6 +71,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
     m_max, v_dc_ref = constants[Const.m_max], constants[Const.v_dc_ref]
     kp_dc, ki_dc, two_over_tau_dc = constants[Const.kp_dc], constants[Const.ki_dc], constants[Const.two_over_tau_dc]
     p_me_min, v_chop, k_chop = constants[Const.p_me_min], constants[Const.v_chop], constants[Const.k_chop]
+    p_me_max = constants[Const.p_me_max]
     kpc, kic, i_max = constants[Const.kpc], constants[Const.kic], constants[Const.i_max_gfl]
     v_dip, k_qv = constants[Const.frt_v_dip], constants[Const.frt_k_qv]
     j_lf = complex(0.0, constants[Const.lf])
@@ -84,6 +86,10 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
         v_pll = v * to_pll
         e_v = pll_error(v_pll.imag, v.real, v.imag)
         j_lf_i = j_lf * i
+        v_dc = math.sqrt(max(X[W * n + j].real, 1e-4))
+        gfl = 1.0 if mode[j] == GFL else 0.0
+        p_gsc, p_me, d_xd = dc_link_control(gfl, v_dc, X[XD * n + j].real, slow[Slow.s_ref_re, j],
+                                            slow[Slow.p_avail, j], v_dc_ref, kp_dc, ki_dc, p_me_min, p_me_max)
         if mode[j] != GFL:  # remote / hd_visc: v_conv given, current-PI integrator frozen
             if remote_i_ref and mode[j] == REMOTE:  # local loop on the received current reference
                 i_ref = i_hold[j]
@@ -93,19 +99,15 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
             g = v_conv - v - j_lf_i
             e_i = 0j
         else:
-            i_ref_d, i_ref_q = gfl_current_ref(slow[Slow.s_ref_re, j], slow[Slow.s_ref_im, j], v_pll.real, i_max,
-                                               v_dip, k_qv)
+            i_ref_d, i_ref_q = gfl_current_ref(p_gsc, slow[Slow.s_ref_im, j], v_pll.real, i_max, v_dip, k_qv)
             e_i = complex(i_ref_d, i_ref_q) - i * to_pll
             g = (kpc * e_i + kic * X[XI * n + j]) * to_pll.conjugate()
             v_conv = v + j_lf_i + g
-        v_dc = math.sqrt(max(X[W * n + j].real, 1e-4))
         vc_re, vc_im, limited = modulation_limit(v_conv.real, v_conv.imag, v_dc, m_max)
         if limited:  # the current-PI integrator is frozen while DC-limited
             v_conv = complex(vc_re, vc_im)
             g = v_conv - v - j_lf_i
             e_i = 0j
-        e_dc = v_dc_ref - v_dc
-        p_me, d_xd = msc_power(e_dc, X[XD * n + j].real, slow[Slow.p_avail, j], kp_dc, ki_dc, p_me_min)
         i_batt = battery_current_of(constants, v_dc, soc[j]) if slow[Slow.battery_on, j] != 0.0 else 0.0
         p_conv = v_conv.real * i.real + v_conv.imag * i.imag
         p_dc = dc_link_power(p_me, p_conv, v_dc * i_batt, v_dc, v_chop, k_chop)

@@ -68,6 +68,29 @@ def msc_power(e_dc, x_d, p_avail, kp_dc, ki_dc, p_me_min):
     return p_me, ki_dc * e_dc * (1.0 - windup)
 
 
+def dc_link_control(gfl, v_dc, x_d, p_ref, p_avail, v_dc_ref, kp_dc, ki_dc, p_me_min, p_me_max):
+    """Which converter holds the DC link, (P*_gsc, P_me, dx_d/dt); ``gfl`` (0/1): the turbine runs
+    grid-following.
+
+    Grid-following (the double-loop control of a Type 4 turbine, CIGRE C4.49 / IEC 61400-27-1): the
+    grid-side converter holds the DC voltage, P*_gsc = clip(kp_dc (v_dc - v_dc*) + x_d, p_me_min,
+    p_me_max) (its integrator x_d, stopped at the clip), and the machine side follows the speed
+    controller's power reference, P_me = clip(p_ref, p_me_min, P_avail).
+    Otherwise (hd_visc, remote: the grid side is the ViSC's) the machine side holds it,
+    P_me = clip(kp_dc (v_dc* - v_dc) + x_d, p_me_min, P_avail) (``msc_power``).
+    In steady state x_d = P either way, so a change of mode keeps it."""
+    e_gsc = v_dc - v_dc_ref  # the grid-side PI (as msc_power, written out: numba compiles this function alone)
+    p_gsc_u = kp_dc * e_gsc + x_d
+    p_gsc = np.maximum(np.minimum(p_gsc_u, p_me_max), p_me_min)
+    d_gsc = ki_dc * e_gsc * (1.0 - ((p_gsc_u - p_gsc) * e_gsc > 0.0))
+    e_msc = -e_gsc  # the machine-side PI
+    p_me_u = kp_dc * e_msc + x_d
+    p_me_pi = np.maximum(np.minimum(p_me_u, p_avail), p_me_min)
+    d_msc = ki_dc * e_msc * (1.0 - ((p_me_u - p_me_pi) * e_msc > 0.0))
+    p_me_follow = np.maximum(np.minimum(p_ref, p_avail), p_me_min)
+    return p_gsc, p_me_follow * gfl + p_me_pi * (1.0 - gfl), d_gsc * gfl + d_msc * (1.0 - gfl)
+
+
 def dc_link_power(p_me, p_conv, p_batt, v_dc, v_chop, k_chop):
     """Net power into the DC link: P_me - P_conv + P_batt - P_chop,
     P_chop = min(k_chop max(v_dc - v_chop, 0), 1.5) (braking chopper)."""

@@ -127,7 +127,7 @@ def test_compiled_path_converges_to_solve_ivp(remote_apply):
     print(f"\nremote {remote_apply}: current error {e_i}, v_dc^2 {e_w}, law {e_law:.1e};"
           f" ratios at h/2 {e_i / e_i2}, {e_w / e_w2}, {e_law / e_law2:.2f}")
     swing = np.ptp(np.abs(ref[:, :N] + 1j * ref[:, size:size + N]), axis=0)
-    assert np.all(swing > 0.02), "the events must excite every turbine"
+    assert np.all(swing > 0.015), "the events must excite every turbine"
     limit_remote = 3e-2 if remote_apply == "v_ref" else 1e-2
     assert e_i[GFL] < 1e-3 and e_w[GFL] < 1e-3
     assert e_i[REMOTE] < limit_remote and e_w[REMOTE] < limit_remote
