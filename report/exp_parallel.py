@@ -55,8 +55,10 @@ def _f8(ctx: Context) -> dict[str, Finding]:
                         "the plant's voltage controller at its reactive limit (a lower grid EMF), which the SDViSCs' "
                         "Q then relieves rather than adds to (docs/plant.md 4b)", {"v_before": v_before, "v_after": v_after}),
         "F8.b": Finding("Q = " + " / ".join(f"{x:.3f}" for x in q) + " p.u.; Q·(m_q + x_t) = "
-                        + " / ".join(f"{x:.4f}" for x in q * (M_Q + x_t)), holds(ordered(list(q), increasing=False)),
-                        f"each SDViSC sits behind its own transformer (x_t = {x_t:.3f} p.u.): Q ∝ 1/(m_q + x_t)",
+                        + " / ".join(f"{x:.4f}" for x in q * (M_Q + x_t)), holds(ordered(list(np.abs(q)), increasing=False)),
+                        f"|Q| ordered (shared by droop); each SDViSC sits behind its own transformer (x_t = {x_t:.3f} "
+                        "p.u.): Q ∝ 1/(m_q + x_t). Negative here: the plant's voltage controller holds the farm's "
+                        "terminals above the SDViSCs' V* = 1.0, so they absorb",
                         {"q": q, "x_t": x_t}),
     }
     events = [(1.0, lambda pl: pl.fault(True)), (1.2, lambda pl: pl.fault(False))]
