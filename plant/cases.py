@@ -27,16 +27,7 @@ def visc_plant(n: int = 4, visc_params: ViscParams | None = None, activate: bool
     """The farm with ``n`` SDViSC turbines (hd_visc), the SC out of service."""
     pp = _params(False, grid)
     pp.visc_params = visc_params or ViscParams()
-    plant = Plant(pp)
-    if n:
-        idx = visc_indices(n)
-        plant.set_power_ref(idx, p=0.0)
-        plant.reinitialise()
-        if battery:
-            plant.set_battery(idx, True)
-        if activate:
-            plant.set_mode(idx, "hd_visc")
-    return plant
+    return _with_visc(Plant(pp), visc_indices(n), activate, battery)
 
 
 def comparison_visc_plant(visc_params: ViscParams | None = None, activate: bool = True, battery: bool = False,
@@ -48,14 +39,18 @@ def comparison_visc_plant(visc_params: ViscParams | None = None, activate: bool 
     pp = _params(False, grid)
     pp.onshore_units = 1
     pp.visc_params = visc_params or ViscParams()
-    plant = Plant(pp)
-    idx = np.array([COMPARISON_UNIT])
-    plant.set_power_ref(idx, p=0.0)
-    plant.reinitialise()
-    if battery:
-        plant.set_battery(idx, True)
-    if activate:
-        plant.set_mode(idx, "hd_visc")
+    return _with_visc(Plant(pp), np.array([COMPARISON_UNIT]), activate, battery)
+
+
+def _with_visc(plant: Plant, idx: np.ndarray, activate: bool, battery: bool) -> Plant:
+    """The converters ``idx`` taken to P = 0 (steady state anew), their batteries, then hd_visc."""
+    if idx.size:
+        plant.set_power_ref(idx, p=0.0)
+        plant.reinitialise()
+        if battery:
+            plant.set_battery(idx, True)
+        if activate:
+            plant.set_mode(idx, "hd_visc")
     return plant
 
 
