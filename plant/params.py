@@ -191,9 +191,9 @@ class WppParams:
     """Reactive limit of each turbine's Q* (both signs), p.u. [src: ENTSO-E RfG / typical grid codes:
     Q/P_max = 0.33 at full power (power factor 0.95)]."""
     period_s: float = 0.0
-    """Update period, s; 0 = at every slow-term hold of the plant (every 10 steps: 6.7 ms at the normal
-    0.67 ms step, 0.5 ms at the HD reference's 50 us), so that the controller converges with the
-    plant's step [assumed; IEC 61400-27-1 WPP control runs with a communication delay of 0.05-0.2 s,
+    """Update period, s; 0 = at every scheduled slow-term hold of the plant (the steps 0, 10, 20, ...: 6.7
+    ms at the normal 0.67 ms step, 0.5 ms at the HD reference's 50 us, whatever commands come between),
+    so that the controller converges with the plant's step [assumed; IEC 61400-27-1 WPP control runs with a communication delay of 0.05-0.2 s,
     not modelled]."""
 
 

@@ -170,17 +170,18 @@ class Plant(Commands, RightHandSide):
     def _hold_slow_if_due(self) -> None:
         """Before an evaluation of the present state: the slow terms are re-evaluated every
         ``slow_every`` steps and after any command/event."""
-        if not self._slow_keep or self.tb.slow is None or self.k >= self._slow_next:
+        scheduled = self.tb.slow is None or self.k >= self._slow_next
+        if not self._slow_keep or scheduled:
+            if scheduled and self.wpp is not None:  # the plant's voltage controller: a sampled controller on
+                # the steps k = 0, slow_every, 2 slow_every, ... whatever commands come between
+                self.tb.q_wpp[:] = self.wpp.update(self.t, abs(self._v_pcc_last)) * self._wpp_mask
             self._hold_slow(after_command=not self._slow_keep)
-            self._slow_next = self.k + self.slow_every
+            self._slow_next = (self.k // self.slow_every + 1) * self.slow_every
         self._slow_keep = False
 
     def _hold_slow(self, after_command: bool) -> None:
         """Evaluate and hold the slow terms; after a command (or at the start) also hand the
-        compiled path the operating values (grid, condenser, load, AVR) the command may have changed.
-        The plant's voltage controller (a sampled controller) updates its order here."""
-        if self.wpp is not None:
-            self.tb.q_wpp[:] = self.wpp.update(self.t, abs(self._v_pcc_last)) * self._wpp_mask
+        compiled path the operating values (grid, condenser, load, AVR) the command may have changed."""
         if self._compiled is None:
             self.tb.hold_slow(self.layout.turbines(self.X))
             return

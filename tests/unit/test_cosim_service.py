@@ -36,7 +36,7 @@ def _pct(a, b, ref, names=("v_pcc", "q", "delta", "e_mag")):
 def test_one_sample_round_trip_is_run_sdc_without_delay(hd):
     service = run_service_sdc(PAPER, lag=1, quantise=False, meas_after_events=True)
     for name, pct in _pct(service, run_sdc(CASE, delay_samples=0), hd).items():
-        assert pct < 0.05, (name, pct)
+        assert pct < 0.06, (name, pct)  # measured 0.050 % (q) on the issue-28 turbines
 
 
 def test_two_sample_round_trip_is_run_sdc_with_one_sample_delay(hd):
@@ -54,7 +54,7 @@ def test_float32_on_the_wire_is_negligible(hd):
         assert pct < 1e-3, (name, pct)
 
 
-def test_one_late_answer_at_the_fault_onset_trips_the_converters():
+def test_one_late_answer_at_the_fault_onset_overshoots_the_limit():
     # as fault_4visc_network.yaml runs: grid-following at MPPT, ViSC from 0.2 s, fault at 1.0 s
     cond = ServiceConditions(start_steps=(300, 300, 300, 300), fault_steps=((1493, True),), n_steps=1520)
     in_time = run_service_sdc(cond, lag=1)
@@ -62,7 +62,10 @@ def test_one_late_answer_at_the_fault_onset_trips_the_converters():
     lags = np.ones((cond.n_steps, 4), dtype=int)
     lags[1494] = 2  # the answer to the first faulted sample misses its step
     late = run_service_sdc(cond, lag=lags)
-    assert (late["trips"] == 1).all() and late["i_wt"].max() > 2.0
+    # the pre-fault reference held two steps into the fault: the current overshoots the 1.5 p.u. limit
+    # (1.56 on the issue-28 turbines, whose fault ride-through holds the fault voltage up; 2.23 and a
+    # trip on the unity-power-factor farm before), below the 2.0 p.u. trip
+    assert late["i_wt"].max() > max(1.5, in_time["i_wt"].max()) and late["trips"].sum() == 0
     # before the late answer both runs are the same run
     np.testing.assert_array_equal(late["q"][:1494], in_time["q"][:1494])
 
