@@ -155,8 +155,9 @@ class TurbineBank:
         vp = v * rot.conj()
         ev = laws.pll_error(vp.imag, v.real, v.imag)
         vdc = np.sqrt(np.maximum(S[W].real, 1e-4))
-        e_dc = vdc - p.v_dc_ref  # the grid side's DC-voltage PI (grid-following: it holds the DC link)
-        p_gsc = np.maximum(np.minimum(p.kp_dc * e_dc + S[XD].real, p.p_me_max), p.p_me_min)
+        # the grid side's P* (grid-following: it holds the DC link); the machine side's terms unused here
+        p_gsc = laws.dc_link_control(1.0, vdc, S[XD].real, 0.0, 0.0, p.v_dc_ref, p.kp_dc, p.ki_dc, p.p_me_min,
+                                     p.p_me_max)[0]
         q_star = self.q_cmd + self.q_wpp
         e = _complex(*laws.gfl_current_ref(p_gsc, -q_star, vp.real, p.i_max_gfl, p.frt_v_dip,
                                             p.frt_k_qv)) - i * rot.conj()

@@ -44,7 +44,7 @@ class WppController:
             at_limit = abs(q_unclipped) >= self.p.q_max and q_unclipped * e > 0.0
             if not at_limit:
                 self.x += self.p.k_i * e * h
-            self.q = self.order(self.error(v_pcc, self.q))
+            self.q = self.order(e)
             self.t_last = now
         return self.q
 
