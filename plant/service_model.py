@@ -10,12 +10,15 @@ from sdvisc.config import PlantConfig
 FARM_TURBINES_PER_CLUSTER = 10
 
 
-def farm_index(name: str, n_farm: int) -> int:
-    """Farm turbine index of host ``wt<c>_<n>``: ``(c-1)*10 + n-1``."""
+def farm_index(name: str, n_farm: int, onshore_units: int = 0) -> int:
+    """Converter index of host ``wt<c>_<n>`` in the farm model: ``(c-1)*10 + n-1``. The onshore units
+    follow the farm's ``n_farm`` turbines (``PlantParams.onshore_units``): host ``wt6_<k>`` of the
+    50-turbine farm is converter 50 + k - 1 (sdvisc.vocabulary.ONSHORE_CLUSTER)."""
     c, n = wire.parse_turbine(name)
     index = (c - 1) * FARM_TURBINES_PER_CLUSTER + (n - 1)
-    if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm:
-        raise ValueError(f"turbine host {name} has no turbine in the {n_farm}-turbine farm model")
+    if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm + onshore_units:
+        units = f" and {onshore_units} onshore unit{'s' * (onshore_units > 1)}" if onshore_units else ""
+        raise ValueError(f"turbine host {name} has no converter in the {n_farm}-turbine farm model{units}")
     return index
 
 
@@ -24,7 +27,9 @@ def build_model(cfg: PlantConfig, names: list[str]):
 
     ``minimal``: one model turbine per turbine host. ``full``: the 50-turbine farm of
     :mod:`plant.sim`; host ``wt<c>_<n>`` is farm turbine ``(c-1)*10 + n-1``, the other farm
-    turbines run without a network endpoint (grid following). The full model takes ``cfg.grid``
+    turbines run without a network endpoint (grid following); with ``cfg.onshore_units`` the plant has
+    that many aggregated onshore units after its turbines (``PlantParams.onshore_units``), host
+    ``wt6_<k>`` being unit k (converter 50 + k - 1, ``plant.cases.COMPARISON_UNIT`` for k = 1). The full model takes ``cfg.grid``
     (the grid source, ``GridParams``), ``cfg.p_star`` (P* from t = 0: the steady state is computed
     for it, as plant/cases.py ``visc_plant`` does) and ``cfg.batteries`` (connected at t = 0; the
     packs float on the DC link at ``battery_soc_init``).
@@ -32,8 +37,8 @@ def build_model(cfg: PlantConfig, names: list[str]):
     kind = cfg.model
     step_s = cfg.step_s
     if kind == "minimal":
-        if cfg.grid.given() or cfg.batteries or cfg.p_star:
-            raise ValueError("grid, batteries and p_star need the full plant model")
+        if cfg.grid.given() or cfg.batteries or cfg.p_star or cfg.onshore_units:
+            raise ValueError("grid, batteries, p_star and onshore units need the full plant model")
         from plant.minimal import MinimalPlant
 
         model = MinimalPlant(len(names), step_s, remote_loss_fallback_s=cfg.remote_loss_fallback_s,
@@ -50,17 +55,22 @@ def build_model(cfg: PlantConfig, names: list[str]):
         turbine = replace(base.turbine, remote_apply=cfg.remote_apply,
                           remote_loss_fallback_s=cfg.remote_loss_fallback_s)
         battery = base.battery if cfg.battery_soc_init is None else replace(base.battery, soc_init=cfg.battery_soc_init)
-        params = replace(base, turbine=turbine, grid=replace(base.grid, **cfg.grid.given()), battery=battery)
+        params = replace(base, turbine=turbine, grid=replace(base.grid, **cfg.grid.given()), battery=battery,
+                         onshore_units=cfg.onshore_units)
         n_farm = params.n_clusters * FARM_TURBINES_PER_CLUSTER
-        indices = [farm_index(name, n_farm) for name in names]
-        warm_up(params, step_s)  # kernels loaded before t = 0, not at the first CTRL packet
-        plant = Plant(params, n_turbines=n_farm, step_s=step_s)
+
+        def index(name: str) -> int:
+            return farm_index(name, n_farm, cfg.onshore_units)
+
+        indices = [index(name) for name in names]
+        warm_up(replace(params, onshore_units=0), step_s)  # kernels loaded before t = 0, not at the first CTRL packet
+        plant = Plant(params, n_turbines=n_farm, step_s=step_s)  # + the onshore units, after the farm's turbines
         if cfg.p_star:
             for name, p in cfg.p_star.items():
-                plant.set_power_ref(farm_index(name, n_farm), p=p)
+                plant.set_power_ref(index(name), p=p)
             plant.reinitialise()
         if cfg.batteries:
-            plant.set_battery([farm_index(name, n_farm) for name in cfg.batteries], True)
+            plant.set_battery([index(name) for name in cfg.batteries], True)
         for scr in [None, *cfg.prepare_scr]:  # the states the run enters: no LU in a paced step
             plant.net.prepare(fault_on=True, **({} if scr is None else {"scr": scr}))
             if scr is not None:

@@ -9,7 +9,7 @@ import sys
 from dataclasses import replace
 from pathlib import Path
 
-from report import network_runs
+from report import net_arrangement, network_runs
 from report.catalogue import EXPERIMENTS, QUICK_NETWORK
 from report.registry import Context, Experiment, NotRun, select
 from report.run import run_report, tally_text
@@ -28,6 +28,10 @@ def parse(argv: list[str]) -> argparse.Namespace:
                     help="the switch side of every link in the network runs (default afxdp: hops ~10x cheaper "
                          "than system ports, one core spun by Open vSwitch during each run; falls back to system "
                          "where AF_XDP is refused; docs/report.md, Time)")
+    ap.add_argument("--net-arrangement", choices=net_arrangement.ARRANGEMENTS, default=net_arrangement.ONSHORE,
+                    help="the SDViSC(s) of F3net-F7net: onshore (default: the paper's comparison arrangement, one "
+                         "40 MVA SDViSC at the onshore PCC, host wt6_1) or cluster3 (four SDViSCs of cluster 3, "
+                         "scenarios/paper/*_cluster3.yaml); report/net_arrangement.py")
     ap.add_argument("--list", action="store_true", help="list the experiments and their claims, run nothing")
     return ap.parse_args(argv)
 
@@ -60,6 +64,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"      {c.id:6} {c.text} [paper: {c.paper}; {c.kind}]")
         return 0
     network_runs.SWITCH_PORTS = args.switch_ports
+    net_arrangement.choose(args.net_arrangement)
     if args.quick and not args.only:
         chosen = [quick_network_subset(e) for e in chosen]
     data = run_report(chosen, args.out, args.quick, argv, offline_on_two_cores=True)

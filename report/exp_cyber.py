@@ -9,7 +9,7 @@ import numpy as np
 from plant.cosim_service import compare_window, run_service_hd
 from plant.run_record import read_run
 from plant.turbine import REMOTE
-from report import figures, network_runs
+from report import figures, net_arrangement, network_runs
 from report.exp_sdc import RMS_PARTLY, RMS_YES
 from report.exp_weak import CRITERIA, CRITERION, f9_run, f9_search, f9_settings
 from report.registry import CONSISTENCY, INPUT, Context, Experiment, Finding, PaperClaim
@@ -85,7 +85,7 @@ def _f1net(ctx: Context) -> dict[str, Finding]:
 
 
 def _f6net(ctx: Context) -> dict[str, Finding]:
-    name = "f6_slg_fault_current"
+    name = net_arrangement.scenario("f6_slg_fault_current")
     summary, ts = network_runs.run(ctx, name)
     wts = [e["wt"] for e in network_runs.timeline(name) if e["do"] == "visc_on"]
     during = (ts["t"] > 1.05) & (ts["t"] < 1.19)
@@ -98,7 +98,7 @@ def _f6net(ctx: Context) -> dict[str, Finding]:
                            "within 2 % of 1.5 = yes, 10 % partly (recorded every "
                            f"{summary.get('step_s', 0) * 1000:.2f} ms × record_every; converter trips: "
                            f"{summary.get('converter_trips') or 'none'})", {"i_max": i_max}),
-        "F6net.b": Finding(f"mean Q during the fault {q:.2f} p.u.", holds(q > 0.1), "mean over 1.05–1.19 s of the four",
+        "F6net.b": Finding(f"mean Q during the fault {q:.2f} p.u.", holds(q > 0.1), f"mean over 1.05–1.19 s ({', '.join(wts)})",
                            {"q_fault": q}),
     }
 
@@ -277,7 +277,7 @@ F1NET = Experiment("F1net", "F1 through the network: SDViSC vs HD ViSC", "Fig. s
                    "compared with is run offline under the run's own conditions (plant/cosim_service.py).")
 F6NET = Experiment("F6net", "F6 through the network: SDViSC fault current", "Fig. Compare_ShortC (b)", "cyber",
                    F6NET_CLAIMS, _f6net, network_runs.command("f6_slg_fault_current"),
-                   "Four SDViSCs of cluster 3 stepped by the SDC over the network; SC out of service.")
+                   f"{net_arrangement.DESCRIPTION}; SC out of service.")
 F9NET = Experiment("F9net", "F9 through the network: 4 SDViSCs at SCR 1.51", "Fig. study2_Weak_noVSC (b)", "cyber",
                    F9NET_CLAIMS, _f9net, network_runs.command("f9_scr151_4visc"),
                    "The paper's boundary case confirmed cyber-in-the-loop, beside the offline run of the same case.")

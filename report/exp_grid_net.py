@@ -1,19 +1,21 @@
 """F2, F3, F4, F7 and F8 through the network: the scenarios of scenarios/paper/ on the full farm,
 every SDViSC stepped by the SDC process over Open vSwitch at the auto time scale, each beside the
 same case offline (the law inside the plant, or the offline co-simulation for F2) with a stated
-tolerance. F7net confirms the SDViSC's SCR boundary found by the offline bisection (F7) by running
-the network case either side of it."""
+tolerance. F3net, F4net and F7net run the paper's comparison arrangement (the onshore 40 MVA SDViSC,
+host wt6_1) against ``plant.cases.comparison_visc_plant`` by default, the four SDViSCs of cluster 3
+with ``--net-arrangement cluster3`` (report/net_arrangement.py). F7net confirms the SDViSC's SCR
+boundary found by the offline bisection (F7) by running the network case either side of it."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from plant.cosim import FaultCase, run_sdc
-from report import figures, network_runs
+from report import figures, net_arrangement, network_runs
 from report.exp_grid import GRID_INERTIA, _load_step
 from report.exp_parallel import M_Q, PAPER_V_BEFORE, _grid_emf_for
 from report.exp_sdc import COLLAPSE_DV
-from report.exp_weak import CRITERION, NET_CASE, T_EVENT, _run_at, f7_search_settings, search_boundary
+from report.exp_weak import CRITERION, T_EVENT, _run_at, f7_search_settings, net_case, search_boundary
 from report.plantcases import sc_plant, t90, visc_indices, visc_plant
 from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
 from report.stability import of_run
@@ -90,15 +92,25 @@ F3NET_CLAIMS = (
 )
 
 
+def f3_offline(name: str, t_end: float) -> dict:
+    """The F3 network case offline: the arrangement's SDViSC(s) at P = 0, switched to the law inside
+    the plant (hd_visc) when the file's visc_on asks (the network run's SDC starts then: from t = 0 the
+    unit's slow Q settling would be 0.2 s further on at the step, 9 % of the onshore unit's rise), V*
+    +0.04 at 1 s."""
+    t_on = min(float(e["t"]) for e in network_runs.timeline(name) if e["do"] == "visc_on")
+    p = net_arrangement.offline_plant(activate=False)
+    vp, idx = p.visc_params, net_arrangement.indices()
+    return p.run_offline(t_end, events=[(t_on, lambda q: q.set_mode(idx, "hd_visc")),
+                                        (1.0, lambda q: q.set_visc_params(vp.with_changes(v_ref=vp.v_ref + 0.04)))],
+                         record_every=10)
+
+
 def _f3net(ctx: Context) -> dict[str, Finding]:
-    name = "f3_voltage_step"
+    name = net_arrangement.scenario("f3_voltage_step")
     summary, ts = network_runs.run(ctx, name)
     t, v = ts["t"], ts["v_pcc"]
     net = {"v_before": float(v[t < 1.0][-1]), "v_after": float(v[-1]), "t90_s": t90(t, v, 1.0)}
-    p = visc_plant()
-    vp = p.visc_params
-    r_v = p.run_offline(float(t[-1]), events=[(1.0, lambda q: q.set_visc_params(vp.with_changes(v_ref=vp.v_ref + 0.04)))],
-                        record_every=10)
+    r_v = f3_offline(name, float(t[-1]))
     p = sc_plant()
     ref0 = p.sc.v_ref
     r_sc = p.run_offline(3.0 if ctx.quick else 6.0, events=[(1.0, lambda q: q.set_avr_ref(ref0 + 0.04))], record_every=10)
@@ -109,8 +121,9 @@ def _f3net(ctx: Context) -> dict[str, Finding]:
     agree = close_to(rise_net, rise_off, AGREE_YES, AGREE_PARTLY)
     fig, axes = figures.new(1)
     axes[0, 0].plot(r_sc["t"], r_sc["v_pcc"], "C0", lw=1.0, label="SC, AVR ref +0.04 (offline)")
-    axes[0, 0].plot(r_v["t"], r_v["v_pcc"], "k", lw=1.4, label="4 SDViSCs, offline (hd_visc)")
-    axes[0, 0].plot(t, v, "C1--", lw=1.0, label=f"4 SDViSCs through the network (k = {_k(summary)})")
+    who = net_arrangement.label()
+    axes[0, 0].plot(r_v["t"], r_v["v_pcc"], "k", lw=1.4, label=f"{who}, offline (hd_visc)")
+    axes[0, 0].plot(t, v, "C1--", lw=1.0, label=f"{who} through the network (k = {_k(summary)})")
     axes[0, 0].set_ylabel("|V_pcc| [p.u.]")
     axes[0, 0].set_xlabel("t [s] (V* 1.00 → 1.04 at 1 s, SC out of service)")
     axes[0, 0].legend(fontsize=7)
@@ -121,9 +134,10 @@ def _f3net(ctx: Context) -> dict[str, Finding]:
         "F3net.a": Finding(f"network {net['v_before']:.3f} → {net['v_after']:.3f}, offline {off['v_before']:.3f} → "
                            f"{off['v_after']:.3f} p.u.", a_verdict if _clean(summary) else "no",
                            f"rise compared with the paper's +0.035; network vs offline rise {rise_net:+.4f} vs {rise_off:+.4f} "
-                           f"p.u. (same within {AGREE_YES:.0%}: {agree}). 4 × 10 MVA on a "
-                           f"3570 MVA PCC gives ≈ 1 % (docs/plant.md 4a); {_trips(summary)}",
-                           {"network": net, "offline": off}),
+                           f"p.u. (same within {AGREE_YES:.0%}: {agree}). {net_arrangement.capacity()} on a "
+                           f"3570 MVA PCC moves it by ≈ 0.1–0.3 % (docs/report.md, which voltage each figure shows; "
+                           f"the paper's ≈ 1.035 is a terminal's); {_trips(summary)}",
+                           {"network": net, "offline": off, "arrangement": net_arrangement.CHOSEN}),
         "F3net.b": Finding(f"t90 network {net['t90_s']:.2f} s (offline {off['t90_s']:.2f} s) vs SC {t90_sc:.2f} s",
                            holds(net["t90_s"] < t90_sc and _clean(summary)),
                            "t90 = time after 1 s until V_pcc covers 90 % of its final change; the SC offline",
@@ -140,7 +154,7 @@ F4NET_CLAIMS = (
 
 
 def _f4net(ctx: Context) -> dict[str, Finding]:
-    name = "f4_inertia_50mw"
+    name = net_arrangement.scenario("f4_inertia_50mw")
     sc = network_runs.load(name)
     grid = {GRID_SCENARIO_KEYS[k]: v for k, v in (sc["plant"].get("grid") or {}).items()}
     if grid != GRID_INERTIA:
@@ -152,7 +166,8 @@ def _f4net(ctx: Context) -> dict[str, Finding]:
     nadir = float(f[t > load["t"]].min() - 50.0)
     t_end = float(t[-1])
     off_sc = _load_step(sc_plant(h_sc=h, **grid), float(load["mw"]), t_end)
-    off_v = _load_step(visc_plant(visc_params=ViscParams(h=h), **grid), float(load["mw"]), t_end)
+    off_v = _load_step(net_arrangement.offline_plant(visc_params=ViscParams(h=h), **grid), float(load["mw"]), t_end,
+                       visc=net_arrangement.indices())
     fig, axes = figures.new(1)
     axes[0, 0].plot(off_sc["t"], off_sc["f"], "C0", lw=1.0, label=f"SC H {h:g} s, offline (nadir {off_sc['nadir_hz']:+.3f} Hz)")
     axes[0, 0].plot(off_v["t"], off_v["f"], "k", lw=1.4, label=f"SDViSC H {h:g} s, offline (nadir {off_v['nadir_hz']:+.3f} Hz)")
@@ -172,7 +187,7 @@ def _f4net(ctx: Context) -> dict[str, Finding]:
         "F4net.b": Finding(f"nadir network {nadir:+.4f} Hz, offline {off_v['nadir_hz']:+.4f} Hz ({err:.1%} apart)",
                            close_to(nadir, off_v["nadir_hz"], AGREE_YES, AGREE_PARTLY) if _clean(summary) else "no",
                            f"within {AGREE_YES:.0%} = yes, {AGREE_PARTLY:.0%} partly; offline: the law inside the plant "
-                           "(hd_visc) from t = 0, the network switches the four to the SDC at 0.2 s",
+                           f"(hd_visc) from t = 0, the network switches {net_arrangement.label()} to the SDC at 0.2 s",
                            {"nadir_network_hz": nadir, "nadir_offline_hz": off_v["nadir_hz"], "relative_error": err}),
     }
 
@@ -191,20 +206,21 @@ def _scr_timeline(scr: float):
 
 
 def _f7net(ctx: Context) -> dict[str, Finding]:
-    name = "f7_weak_grid_visc"
+    name = net_arrangement.scenario("f7_weak_grid_visc")
+    case = net_case()  # the scenario's case offline (no virtual friction): F7's own SDViSC by default
     t_end, xtol = f7_search_settings(ctx.quick)
-    b, _ = search_boundary(NET_CASE, t_end, xtol)  # the scenario's case (cluster 3, no virtual friction)
+    b, _ = search_boundary(case, t_end, xtol)
     b_sc, _ = search_boundary("SC", t_end, xtol)
     if b.value is None:
         raise ValueError(f"the offline search found no SDViSC boundary ({b.note}): nothing to confirm")
     points = {"above": round(b.value + F7_MARGIN_SCR, 3), "below": round(b.value - F7_MARGIN_SCR, 3)}
     net, off, runs = {}, {}, {}
     for side, scr in points.items():
-        summary, ts = network_runs.run_variant(ctx, name, f"f7_weak_grid_visc_scr{scr:.3f}",
+        summary, ts = network_runs.run_variant(ctx, name, f"{name}_scr{scr:.3f}",
                                                {"timeline": _scr_timeline(scr), "duration_s": t_end})
         net[side] = of_run(ts, T_EVENT)
         runs[side] = (ts, summary)
-        off[side] = of_run(_run_at(NET_CASE, scr, t_end), T_EVENT)
+        off[side] = of_run(_run_at(case, scr, t_end), T_EVENT)
     stable_above = net["above"].stable and _clean(runs["above"][1])
     below_sc = b_sc.value is None or points["above"] < b_sc.value
     verdict = "yes" if stable_above and below_sc and not net["below"].stable else \
@@ -215,8 +231,8 @@ def _f7net(ctx: Context) -> dict[str, Finding]:
         axes[0, 0].plot(ts["t"], ts["v_pcc"], style, lw=1.0,
                         label=f"SCR {points[side]:.3f} through the network (k = {_k(summary)}): {net[side].describe()}")
     axes[0, 0].set_ylabel("|V_pcc| [p.u.]")
-    axes[0, 0].set_xlabel(f"t [s] (SCR 7.14 → the value shown at {T_EVENT:g} s; four SDViSCs over the network; offline "
-                          f"boundary {b.value:.3f})")
+    axes[0, 0].set_xlabel(f"t [s] (SCR 7.14 → the value shown at {T_EVENT:g} s; {net_arrangement.label()} over the "
+                          f"network; offline boundary {b.value:.3f})")
     axes[0, 0].legend(fontsize=6.5, loc="lower left")
     figures.save(ctx, fig, "f7net_boundary_through_network", "with the SDViSC the system is stable at a lower SCR than "
                  "with the SC (1.58).")
@@ -295,13 +311,14 @@ F2NET = Experiment("F2net", "F2 through the network: trapezoid-cumulative float3
                    "cyber", F2NET_CLAIMS, _f2net, network_runs.command("f2_trapezoid_025ms"),
                    f"Four SDViSCs, one per cluster, {_SCOPE} (Tustin co-simulation at the same Ts).")
 F3NET = Experiment("F3net", "F3 through the network: V* step", "Fig. Compare_Volg (a)", "cyber", F3NET_CLAIMS, _f3net,
-                   network_runs.command("f3_voltage_step"), f"Four SDViSCs of cluster 3, {_SCOPE}.")
+                   network_runs.command("f3_voltage_step"), f"{net_arrangement.DESCRIPTION}.")
 F4NET = Experiment("F4net", "F4 through the network: +50 MW, H 3 s", "Fig. Compare_inertia1", "cyber", F4NET_CLAIMS,
-                   _f4net, network_runs.command("f4_inertia_50mw"), f"Four SDViSCs of cluster 3, {_SCOPE}.")
+                   _f4net, network_runs.command("f4_inertia_50mw"), f"{net_arrangement.DESCRIPTION}.")
 F7NET = Experiment("F7net", "F7 through the network: the SDViSC's SCR boundary confirmed", "Fig. Compare_Weak", "cyber",
                    F7NET_CLAIMS, _f7net, network_runs.command("f7_weak_grid_visc"),
-                   "The F7 case at the offline SDViSC boundary ± 0.05 SCR, four SDViSCs of cluster 3 over the network "
-                   "(the scenario file with the SCR changed is written to <out>/scenarios/ and run from there).")
+                   "The F7 case at the offline SDViSC boundary ± 0.05 SCR (F7's own boundary of the 40 MVA unit), "
+                   f"run through the network (the scenario file with the SCR changed is written to <out>/scenarios/ and "
+                   f"run from there). {net_arrangement.DESCRIPTION}.")
 F8NET = Experiment("F8net", "F8 through the network: parallel SDViSCs with droop", "Fig. study2_VSC_reg (a)", "cyber",
                    F8NET_CLAIMS, _f8net, network_runs.command("f8_parallel_droop"),
                    f"Four SDViSCs of cluster 3, {_SCOPE}; the grid EMF set as in F8 (V_pcc = 0.97 before; plant.grid.e "

@@ -1,14 +1,16 @@
-"""F5net: the paper's SDViSC + battery case of F5 (+100 MW, H 4 s, 2000 Ah batteries, grid source
+"""F5net: the paper's SDViSC + battery case of F5 (+100 MW, H 4 s, 2000 Ah battery, grid source
 with inertia) through the network, scenarios/paper/f5_inertia_100mw_battery.yaml at the auto time
 scale, beside the same case offline (hd_visc, report/exp_grid.py's F5 set-up with the file's
-grid, H, batteries and load step). The frequency nadirs are compared with a stated tolerance."""
+grid, H, batteries and load step). By default the paper's comparison arrangement (the onshore
+40 MVA SDViSC, host wt6_1, against ``plant.cases.comparison_visc_plant``), with
+``--net-arrangement cluster3`` the four SDViSCs of cluster 3 (report/net_arrangement.py). The
+frequency nadirs are compared with a stated tolerance."""
 
 from __future__ import annotations
 
 from plant.params import BatteryParams
-from report import figures, network_runs
+from report import figures, net_arrangement, network_runs
 from report.exp_grid import _load_step
-from report.plantcases import visc_plant
 from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
 from report.verdicts import close_to, holds
 from sdc_unit.params import ViscParams
@@ -29,7 +31,7 @@ F5NET_CLAIMS = (
 def case() -> dict:
     """What the scenario file sets: grid keys (GridParams names), ViSC H, the battery turbines and
     SOC, the load step (MW, s)."""
-    sc = network_runs.load(NAME)
+    sc = network_runs.load(net_arrangement.scenario(NAME))
     plant = sc["plant"]
     visc = [e for e in sc["timeline"] if e["do"] == "visc_on"]
     load = next(e for e in sc["timeline"] if e["do"] == "load_step")
@@ -45,13 +47,17 @@ def _f5net(ctx: Context) -> dict[str, Finding]:
     c = case()
     if c["t_load"] != 1.0:
         raise ValueError(f"{NAME}: the offline case steps the load at 1 s, the file at {c['t_load']} s")
-    summary, ts = network_runs.run(ctx, NAME)
+    summary, ts = network_runs.run(ctx, net_arrangement.scenario(NAME))
     t, f = ts["t"], ts["f_pcc_hz"]
     after = t > c["t_load"]
     nadir_net = float(f[after].min() - 50.0)
     vp = ViscParams(h=c["h"])
-    offline = _load_step(visc_plant(c["n_visc"], visc_params=vp, battery=True, **c["grid"]), c["mw"], c["duration_s"])
-    no_batt = _load_step(visc_plant(c["n_visc"], visc_params=vp, **c["grid"]), c["mw"], c["duration_s"])
+    idx = net_arrangement.indices()
+    if len(idx) != c["n_visc"]:
+        raise ValueError(f"{net_arrangement.scenario(NAME)}: {c['n_visc']} SDViSCs, the offline case has {len(idx)}")
+    offline = _load_step(net_arrangement.offline_plant(visc_params=vp, battery=True, **c["grid"]), c["mw"],
+                         c["duration_s"], visc=idx)
+    no_batt = _load_step(net_arrangement.offline_plant(visc_params=vp, **c["grid"]), c["mw"], c["duration_s"], visc=idx)
     batt = summary.get("batteries", {})
     soc_net = {wt: b["soc_change"] for wt, b in batt.items()}
     worst_soc = min(soc_net.values(), default=0.0)
@@ -70,8 +76,8 @@ def _f5net(ctx: Context) -> dict[str, Finding]:
         f"nadir network {nadir_net:+.4f} Hz, offline {offline['nadir_hz']:+.4f} Hz ({err:.1%} apart)", verdict,
         f"tolerance: within {NADIR_YES:.0%} of the offline nadir = yes, {NADIR_PARTLY:.0%} partly; a converter trip "
         f"or fall-back = no (trips {trips or 'none'}, fall-backs {fallbacks or 'none'}). Offline: the same case with "
-        "the law inside the plant (hd_visc) from t = 0 at P* = 0, the network run switches the four to the SDC at "
-        f"0.2 s (also at P* = 0); time scale {k}, {summary.get('late_steps')} of {summary.get('steps')} steps late. "
+        f"the law inside the plant (hd_visc) from t = 0 at P* = 0, the network run switches {net_arrangement.label()} "
+        f"to the SDC at 0.2 s (also at P* = 0); time scale {k}, {summary.get('late_steps')} of {summary.get('steps')} steps late. "
         "SOC change per battery: network " + ", ".join(f"{wt} {d * 100:+.3f} %" for wt, d in soc_net.items())
         + f", offline {-offline['d_soc'] * 100:+.3f} %",
         {"nadir_network_hz": nadir_net, "nadir_offline_hz": offline["nadir_hz"], "relative_error": err})
@@ -106,5 +112,5 @@ def _f5net(ctx: Context) -> dict[str, Finding]:
 
 F5NET = Experiment("F5net", "F5 through the network: SDViSC + battery, +100 MW", "Fig. Compare_inertia3", "cyber",
                    F5NET_CLAIMS, _f5net, network_runs.command(NAME),
-                   "Four SDViSCs of cluster 3 with 2000 Ah batteries, stepped by the SDC over the network at the auto "
-                   "time scale, beside the same case offline; grid source H 5 s on 1000 MVA (assumed).")
+                   f"{net_arrangement.DESCRIPTION}; with a 2000 Ah battery on the DC link; grid source H 5 s on "
+                   "1000 MVA (assumed).")

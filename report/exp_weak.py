@@ -12,7 +12,7 @@ import functools
 import numpy as np
 
 from plant.cases import comparison_visc_plant
-from report import figures
+from report import figures, net_arrangement
 from report.boundary import Boundary, smallest_sufficient, threshold
 from report.plantcases import bare_plant, sc_plant, visc_plant
 from report.registry import Context, Experiment, Finding, PaperClaim
@@ -47,10 +47,17 @@ def comparison_case(friction: bool):
 
 
 SDVISC = {False: "SDViSC", True: "SDViSC + virtual friction"}  # F7's SDViSC configurations by friction
-NET_CASE = "4 SDViSCs of cluster 3"  # what scenarios/paper/f7_weak_grid_visc.yaml runs (F7net), no friction
+NET_CASE = "4 SDViSCs of cluster 3"  # what f7_weak_grid_visc_cluster3.yaml runs (F7net, --net-arrangement cluster3)
 CONFIGS = {"none": bare_plant, "SC": sc_plant, SDVISC[False]: lambda: comparison_case(False),
            SDVISC[True]: lambda: comparison_case(True), NET_CASE: lambda: visc_plant(4, visc_params=visc_params(False))}
-F7_CONFIGS = ("none", "SC", SDVISC[False], SDVISC[True])  # what F7 searches (NET_CASE is F7net's)
+F7_CONFIGS = ("none", "SC", SDVISC[False], SDVISC[True])  # what F7 searches (NET_CASE is F7net's cluster-3 variant)
+
+
+def net_case() -> str:
+    """The CONFIGS key of the case scenarios/paper/f7_weak_grid_visc*.yaml runs (F7net, no virtual
+    friction) in the chosen arrangement (report/net_arrangement.py): F7's own SDViSC, the onshore 40 MVA
+    unit (the default), or NET_CASE."""
+    return SDVISC[False] if net_arrangement.CHOSEN == net_arrangement.ONSHORE else NET_CASE
 
 F7_CLAIMS = (
     PaperClaim("F7.a", "Without SC or SDViSC the farm becomes unstable when the SCR decreases to 2.04 (the "

@@ -64,4 +64,5 @@ def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | N
                        prepare_scr=sorted({e.value for e in sc.timeline if e.do == "scr"}),
                        grid=GridSourceSettings(**(p.grid.grid_params() if p.grid else {})),
                        batteries=p.batteries.turbines if p.batteries else [],
-                       battery_soc_init=p.batteries.soc_init if p.batteries else None, p_star=p.p_star or {})
+                       battery_soc_init=p.batteries.soc_init if p.batteries else None, p_star=p.p_star or {},
+                       onshore_units=sc.topology.onshore_units)

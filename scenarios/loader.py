@@ -218,6 +218,9 @@ class _Parts:
         relative = relative_params(cls)
         supported = supported_actions(cls)
         problems = []
+        if self.topology.onshore_units and self.model != "full":
+            problems.append((("topology", "onshore_units"), f"onshore units are converters of the full farm "
+                             f"model (PlantParams.onshore_units): needs plant.model: full, not {self.model}"))
         for i, event in self.events:
             if event.do == "set" and event.param not in settable:
                 problems.append((("timeline", i, "param"),

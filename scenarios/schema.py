@@ -19,6 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validat
 
 from plant.params import BatteryParams, GridParams
 from sdvisc.config import GATHER_HELP, GRID_SCENARIO_KEYS
+from sdvisc.vocabulary import MAX_ONSHORE_UNITS, ONSHORE_CLUSTER
 
 TURBINE_PATTERN = r"^wt\d+_\d+$"
 
@@ -32,6 +33,10 @@ class TopologySpec(Strict):
     clusters: int = Field(5, ge=1, le=50)
     turbines: int = Field(2, ge=1, le=100, description="turbines per cluster")
     layout: Literal["compact", "tower"] | None = Field(None, description="farm only; default compact")
+    onshore_units: int = Field(0, ge=0, le=MAX_ONSHORE_UNITS, description=(
+        "farm with plant.model full only: the plant's aggregated onshore units (the paper's comparison "
+        "arrangement: one 40 MVA SDViSC at the onshore PCC, PlantParams.onshore_units), each a turbine host "
+        f"wt{ONSHORE_CLUSTER}_<k> on the substation switch sub1, plant converter 50 + k - 1; 0 = none"))
 
     @model_validator(mode="after")
     def _layout_only_for_farm(self):
@@ -39,10 +44,22 @@ class TopologySpec(Strict):
             raise ValueError("layout applies to the farm topology only")
         return self
 
+    @field_validator("onshore_units")
+    @classmethod
+    def _onshore_on_the_farm(cls, value: int, info: ValidationInfo) -> int:
+        if value and info.data.get("name", "paper") != "farm":
+            raise ValueError("onshore units need the farm topology (their hosts hang on its substation switch sub1)")
+        if value and info.data.get("clusters", 0) >= ONSHORE_CLUSTER:
+            raise ValueError(f"onshore unit hosts are wt{ONSHORE_CLUSTER}_<k>: at most {ONSHORE_CLUSTER - 1} "
+                             f"clusters beside them, not {info.data['clusters']}")
+        return value
+
     def params(self) -> dict:
         p = {"clusters": self.clusters, "turbines": self.turbines}
         if self.name == "farm":
             p["layout"] = self.layout or "compact"
+        if self.onshore_units:
+            p["onshore_units"] = self.onshore_units
         return p
 
 

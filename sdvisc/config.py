@@ -17,7 +17,7 @@ from typing import Literal, TypeVar
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from sdvisc.clock import Clock
-from sdvisc.vocabulary import TURBINE_PATTERN
+from sdvisc.vocabulary import MAX_ONSHORE_UNITS, TURBINE_PATTERN
 
 CONTROLLER_VIP = "10.0.0.254"
 """The SDN application's virtual IP address (packets to it reach the controller as packet-ins)."""
@@ -131,6 +131,9 @@ class PlantConfig(ServiceBase):
     battery_soc_init: float | None = Field(None, ge=0, le=1, description="their initial SOC (None: BatteryParams)")
     p_star: dict[str, float] = Field(default_factory=dict, description="full model: grid-following P* (turbine "
                                      "p.u.) of these turbines from t = 0, the steady state computed for it")
+    onshore_units: int = Field(0, ge=0, le=MAX_ONSHORE_UNITS, description=(
+        "full model: the aggregated onshore units appended after the farm's turbines (PlantParams.onshore_units); "
+        "host wt6_<k> is converter n_farm + k - 1 (sdvisc.vocabulary.ONSHORE_CLUSTER)"))
 
 
 class OwfccConfig(ProcessBase):

@@ -29,6 +29,22 @@ REQUEST_PARAM_WORDS: tuple[str, ...] = ("mask", *VISC_PARAMS)
 TURBINE_PATTERN = r"^wt[1-9]\d*_[1-9]\d?$"
 """A turbine name: ``wt<cluster>_<number>`` (cluster ≥ 1, number 1–99); see :func:`sdvisc.wire.parse_turbine`."""
 
+ONSHORE_CLUSTER = 6
+"""The cluster number in the names of the plant's onshore units (``PlantParams.onshore_units``, the
+aggregated 40 MVA SDViSC of the paper's comparison arrangement at the onshore PCC): unit k is host
+``wt6_<k>`` (wire id 600 + k), the group after the full farm's five clusters of ten, so that the
+farm's index rule (c − 1)·10 + n − 1 gives 50 + k − 1: the converters the plant appends after its 50
+turbines (``plant.cases.COMPARISON_UNIT`` = 50 for ``wt6_1``)."""
+MAX_ONSHORE_UNITS = 10
+"""At most this many onshore units (``wt6_1`` … ``wt6_10``: the index rule's group of ten)."""
+
+
+def onshore_host(unit: int) -> str:
+    """Host name of onshore unit ``unit`` (from 1): ``wt6_<unit>``."""
+    if not 1 <= unit <= MAX_ONSHORE_UNITS:
+        raise ValueError(f"onshore unit {unit}: must be within 1..{MAX_ONSHORE_UNITS}")
+    return f"wt{ONSHORE_CLUSTER}_{unit}"
+
 F_NOMINAL_HZ = 50.0
 """Nominal grid frequency, Hz."""
 OMEGA0 = 2.0 * math.pi * F_NOMINAL_HZ

@@ -11,21 +11,31 @@ tower switch ``t<k>x<n>``; a cluster's tower switches form a string whose two en
 the substation (first tower on ``sub1``, last on ``sub2``), and ``sub1 – sub2`` are linked.
 
 In both, any single switch-to-switch link failure leaves another path.
+
+``onshore_units`` (default 0): the plant's aggregated onshore units (the paper's 40 MVA SDViSC at the
+onshore PCC, ``PlantParams.onshore_units``), each a turbine-like host ``wt6_<k>``
+(:func:`sdvisc.vocabulary.onshore_host`) on the substation switch ``sub1``, beside ``owfcc`` and
+``sdc1``: the onshore end of the farm's network, not a cluster's string.
 """
 
 from __future__ import annotations
 
+from sdvisc.vocabulary import ONSHORE_CLUSTER, onshore_host
 from topologies.base import TestbedTopo
 
 LAYOUTS = ("compact", "tower")
 
 
 class FarmTopo(TestbedTopo):
-    """``clusters`` × ``turbines`` turbine hosts ``wt<c>_<n>`` on a ring-protected network."""
+    """``clusters`` × ``turbines`` turbine hosts ``wt<c>_<n>`` on a ring-protected network, and
+    ``onshore_units`` hosts ``wt6_<k>`` on ``sub1``."""
 
-    def build(self, clusters: int = 5, turbines: int = 10, layout: str = "compact"):
+    def build(self, clusters: int = 5, turbines: int = 10, layout: str = "compact", onshore_units: int = 0):
         if layout not in LAYOUTS:
             raise ValueError(f"farm layout must be one of {LAYOUTS}, got {layout!r}")
+        if onshore_units and clusters >= ONSHORE_CLUSTER:
+            raise ValueError(f"onshore units are hosts {onshore_host(1)}, …: the farm may have at most "
+                             f"{ONSHORE_CLUSTER - 1} clusters beside them, not {clusters}")
         sub1 = self.add_switch("sub1", dpid=1)
         sub2 = self.add_switch("sub2", dpid=2)
         self.addLink(self.add_service_host("owfcc"), sub1)
@@ -36,6 +46,8 @@ class FarmTopo(TestbedTopo):
             self._build_compact(sub1, sub2, clusters, turbines)
         else:
             self._build_tower(sub1, sub2, clusters, turbines)
+        for k in range(1, onshore_units + 1):
+            self.addLink(self.add_turbine(ONSHORE_CLUSTER, k), sub1)
 
     def _build_compact(self, sub1: str, sub2: str, clusters: int, turbines: int) -> None:
         previous = sub1

@@ -305,9 +305,17 @@ def test_the_sweeps_beyond_the_paper_are_offline_and_run_before_the_network():
 
 def test_f5net_reads_its_case_from_the_scenario_file():
     """F5net's offline counterpart is built from what scenarios/paper/f5_inertia_100mw_battery.yaml sets."""
+    from report import net_arrangement
     from report.exp_inertia_net import case
 
-    c = case()
+    c = case()  # the paper's comparison arrangement: the onshore 40 MVA SDViSC (host wt6_1)
     assert c["grid"] == {"h_grid": 5.0, "s_grid_mva": 1000.0}
+    assert (c["h"], c["n_visc"], c["mw"], c["t_load"]) == (4.0, 1, 100.0, 1.0)
+    assert c["batteries"] == ["wt6_1"] and c["soc_init"] == 0.5
+    try:
+        net_arrangement.choose(net_arrangement.CLUSTER3)  # the cluster-3 variant's file
+        c = case()
+    finally:
+        net_arrangement.choose(net_arrangement.ONSHORE)
     assert (c["h"], c["n_visc"], c["mw"], c["t_load"]) == (4.0, 4, 100.0, 1.0)
     assert c["batteries"] == ["wt3_1", "wt3_2", "wt3_3", "wt3_4"] and c["soc_init"] == 0.5

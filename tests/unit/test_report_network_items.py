@@ -76,8 +76,11 @@ def test_quick_without_only_runs_two_network_experiments_and_says_why_not_the_ot
 
 def test_runs_of_the_same_shape_share_a_calibration_start_and_others_do_not():
     shapes = {n: network_runs.shape_of(network_runs.load(n)) for n in
-              ("f3_voltage_step", "f4_inertia_50mw", "f8_parallel_droop", "f1_tustin_vs_hd", "f2_trapezoid_025ms")}
-    assert shapes["f3_voltage_step"] == shapes["f4_inertia_50mw"] == shapes["f8_parallel_droop"]  # cluster 3, 0.67 ms
+              ("f3_voltage_step", "f4_inertia_50mw", "f8_parallel_droop", "f1_tustin_vs_hd", "f2_trapezoid_025ms",
+               "f3_voltage_step_cluster3")}
+    assert shapes["f3_voltage_step"] == shapes["f4_inertia_50mw"]  # the onshore unit wt6_1, 0.67 ms
+    assert shapes["f3_voltage_step_cluster3"] == shapes["f8_parallel_droop"]  # cluster 3, 0.67 ms
+    assert shapes["f3_voltage_step"] != shapes["f8_parallel_droop"]  # another topology (wt6_1 on sub1)
     assert shapes["f1_tustin_vs_hd"] != shapes["f3_voltage_step"]  # one ViSC per cluster: other paths
     assert shapes["f2_trapezoid_025ms"] != shapes["f1_tustin_vs_hd"]  # same turbines, Ts 0.25 ms
 
@@ -85,8 +88,8 @@ def test_runs_of_the_same_shape_share_a_calibration_start_and_others_do_not():
 def test_a_new_shape_starts_its_search_where_a_run_of_the_same_topology_and_period_held(monkeypatch):
     monkeypatch.setattr(network_runs, "_chosen_k", {})
     monkeypatch.setattr(network_runs, "_chosen_k_near", {})
-    f1, f3, f4, f2 = (network_runs.load(n) for n in ("f1_tustin_vs_hd", "f3_voltage_step", "f4_inertia_50mw",
-                                                     "f2_trapezoid_025ms"))
+    f1, f3, f4, f2 = (network_runs.load(n) for n in ("f1_tustin_vs_hd", "f3_voltage_step_cluster3",
+                                                     "f4_inertia_50mw_cluster3", "f2_trapezoid_025ms"))
     assert network_runs.calibration_start(f1) is None  # nothing known: from k = 1
     network_runs.remember_calibration(f1, 16.0)
     assert network_runs.calibration_start(f3) == 16.0  # other turbines, same farm and period
