@@ -154,3 +154,26 @@ def test_the_report_knows_the_calibrations_largest_candidate():
     from scenarios.calibrate import CANDIDATES
 
     assert network_runs.LARGEST_CANDIDATE == max(CANDIDATES)
+
+
+def test_the_network_arrangement_picks_files_offline_twins_and_the_f7_case():
+    import pytest
+
+    from plant.cases import COMPARISON_UNIT
+    from report import net_arrangement as na
+    from report.exp_weak import NET_CASE, SDVISC, net_case
+
+    assert na.CHOSEN == na.ONSHORE and na.scenario("f3_voltage_step") == "f3_voltage_step"
+    assert list(na.indices()) == [COMPARISON_UNIT] and net_case() == SDVISC[False]  # F7's own SDViSC
+    assert na.offline_plant(activate=False).n == 51 and "wt6_1" in na.label()
+    try:
+        na.choose(na.CLUSTER3)
+        assert na.scenario("f7_weak_grid_visc") == "f7_weak_grid_visc_cluster3"
+        assert list(na.indices()) == [20, 21, 22, 23] and net_case() == NET_CASE
+        assert na.offline_plant(activate=False).n == 50
+    finally:
+        na.choose(na.ONSHORE)
+    with pytest.raises(ValueError, match="unknown arrangement"):
+        na.choose("offshore")
+    assert all(network_runs.scenario_path(f"{n}_cluster3").exists() for n in (
+        "f3_voltage_step", "f4_inertia_50mw", "f5_inertia_100mw_battery", "f6_slg_fault_current", "f7_weak_grid_visc"))
