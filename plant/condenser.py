@@ -15,7 +15,8 @@ State x = [delta (rad), omega (p.u.), e'_q, e''_q, e''_d, x_ll (SEXS lead-lag), 
           T_E dE_fd/dt = K y - E_fd,  E_fd clamped to [E_min, E_max] (non-windup)
 
 Simplifications: the (x'_d - x''_d)/(x'_d - x_l)^2 coupling terms of the full 6th-order model and
-saturation are neglected; stator transients are neglected (network is quasi-static).
+saturation are neglected; stator transients are neglected with the quasi-static network (with the
+dynamic-phasor network the stator current is that of its subtransient RL branch: dynamic_network.py).
 """
 
 from __future__ import annotations
@@ -44,13 +45,33 @@ class Condenser:
         """Stator current on the SC base, out of the machine, network frame."""
         return (self.e_net(x) - v_term) / self.z2
 
-    def rhs(self, x, v_term: complex, v_reg: float, e_net: complex | None = None):
-        """(dx, I): x as an array or a list of 7 floats; ``e_net`` = ``self.e_net(x)`` if known."""
+    def flux_emf(self, x, i_net: complex) -> complex:
+        """The rotor's transformer EMF -(1/ω0) d(e''_d + j e''_q)/dt e^{jδ} in the network frame, at
+        the stator current ``i_net`` (SC base, network frame).
+
+        Needed only with the stator's transients modelled (the dynamic-phasor network): E'' behind a
+        dynamic L'' without it leaves out the dψ''/dt of the stator's voltage equation, and the
+        stator's own mode (the DC offset, at ω0 in the rotating frame) is then undamped or growing
+        (tests/unit/test_dynamic_network.py checks it decays); with the stator quasi-static it is
+        neglected with the other dψ/dt terms, as the subtransient model is derived.
+        """
+        p = self.p
+        delta, eq1, eq2, ed2 = x[DELTA].real, x[EQ1].real, x[EQ2].real, x[ED2].real
+        im = i_net * 1j * cmath.exp(-1j * delta)
+        d_eq2 = (eq1 - eq2 - (p.xd1 - p.xd2) * im.real) / p.td02
+        d_ed2 = (-ed2 + (p.xq - p.xd2) * im.imag) / p.tq02
+        return -complex(d_ed2, d_eq2) * cmath.exp(1j * delta) / OMEGA0
+
+    def rhs(self, x, v_term: complex, v_reg: float, e_net: complex | None = None, i_net: complex | None = None):
+        """(dx, I): x as an array or a list of 7 floats; ``e_net`` = ``self.e_net(x)`` if known;
+        ``i_net`` the stator current when the network computes it (its dynamic-phasor branch), else
+        the algebraic (E'' - v)/(r_a + j x''_d)."""
         p = self.p
         delta, w, eq1, eq2, ed2, xll, efd = x.real.tolist() if isinstance(x, np.ndarray) else x
         if e_net is None:
             e_net = complex(eq2, -ed2) * cmath.exp(1j * delta)
-        i_net = (e_net - v_term) / self.z2
+        if i_net is None:
+            i_net = (e_net - v_term) / self.z2
         im = i_net * 1j * cmath.exp(-1j * delta)
         i_d, i_q = im.real, im.imag
         u = self.v_ref - v_reg - p.m_q * (v_term * i_net.conjugate()).imag

@@ -103,7 +103,9 @@ class RightHandSide:
         """Condenser, grid source and PCC PLL (tail: list of floats): (derivatives, I_sc, f_pcc [p.u.])."""
         net, g, tp = self.net, self.params.grid, self.params.turbine
         if net.sc_connected:
-            d, i_sc = self.sc.rhs(tail[:SC_NX], vsc, abs(vp) if self.sc.p.avr_bus == "pcc" else abs(vsc), e_sc)
+            i_dyn = net.sc_current(vsc, e_sc)  # the stator branch's current with the dynamic-phasor network
+            d, i_sc = self.sc.rhs(tail[:SC_NX], vsc, abs(vp) if self.sc.p.avr_bus == "pcc" else abs(vsc), e_sc,
+                                  None if i_dyn is None else i_dyn / net.k_sc)
         else:
             d, i_sc = [0.0] * SC_NX, 0.0j
         if g.h_grid > 0:
@@ -126,6 +128,8 @@ class RightHandSide:
         thg = tail[SC_NX]
         e_grid = g.e_grid * cmath.exp(1j * thg) if thg != 0.0 else complex(g.e_grid)
         e_sc = self.sc.e_net(tail[:SC_NX]) if net.sc_connected else 0.0j
+        if net.sc_connected and net.hist is not None:  # the rotor's transformer EMF, at the last step's current
+            e_sc += self.sc.flux_emf(tail[:SC_NX], net.sc_current_last() / net.k_sc)
         vl = self._v_pcc_last
         i_load = self.load_s.conjugate() * vl / max(abs(vl) ** 2, 0.49) if self.load_s else 0.0j
         return e_grid, e_sc, i_load
@@ -137,6 +141,8 @@ class RightHandSide:
         e_grid, e_sc, i_load = self._sources(tail)
         i_t = S[T.IF].copy() if net.all_plugged else np.where(net.plugged, S[T.IF], 0.0)
         node_v = net.zred @ net.reduced_u(i_t, e_grid, e_sc, i_load)
+        if net.w_red is not None:  # the dynamic-phasor network's history (plant/dynamic_network.py)
+            node_v += net.w_red
         v = node_v[:n]
         vp, vsc = node_v[n:].tolist()
         ext, any_ext, _ = self._mode_info()
@@ -164,4 +170,6 @@ class RightHandSide:
         if "V" not in aux:
             net = self.net
             aux["V"] = net.zcols @ net.reduced_u(aux["i"], aux["e_grid"], aux["e_sc"], aux["i_load"])
+            if net.w_full is not None:
+                aux["V"] += net.w_full
         return aux["V"]

@@ -41,6 +41,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from plant.dynamic_network import GRID_SOURCE, GROUND, SC_SOURCE, Companion, Elements, History
 from plant.params import PlantParams
 from sdvisc.vocabulary import OMEGA0
 
@@ -49,6 +50,8 @@ def _par(*zs: complex) -> complex:
     return 1.0 / sum(1.0 / z for z in zs)
 
 
+NETWORK_MODELS = ("quasi_static", "dynamic_phasor")
+
 FACTOR_CACHE_SIZE = 16
 """Network states whose factorisation is kept (each ~(nodes)^2 complex: ~0.2 MB on the farm)."""
 
@@ -56,8 +59,16 @@ FACTOR_CACHE_SIZE = 16
 class Network:
     """Admittance matrix, its factorisation and the solve V = Y^-1 I."""
 
-    def __init__(self, params: PlantParams, n_turbines: int):
+    def __init__(self, params: PlantParams, n_turbines: int, step_s: float | None = None):
         self.p = params
+        if params.network_model not in NETWORK_MODELS:
+            raise ValueError(f"network_model must be one of {NETWORK_MODELS}, got {params.network_model!r}")
+        self.dynamic = params.network_model == "dynamic_phasor"
+        if self.dynamic and not step_s:
+            raise ValueError("the dynamic-phasor network needs the plant's step (step_s)")
+        self.h = step_s  # the companion model's step (dynamic-phasor network)
+        self.hist: History | None = None  # its history (start_history)
+        self.w_full = self.w_red = None  # what the history adds to every node / the reduced voltages
         g = params.grid
         self.n = n_turbines
         self.sb = g.s_base_mva
@@ -134,57 +145,67 @@ class Network:
         return z, b
 
     # ---------------------------------------------------------------- Y matrix
-    def build_y(self, with_fault: bool = True) -> np.ndarray:
+    def elements(self, with_fault: bool = True) -> Elements:
+        """Every passive element of the network in a fixed order: the turbines' filter capacitors,
+        their transformers (inactive when unplugged), the array and export cables (pi sections),
+        the transformers, the compensation reactors, the grid's Thevenin branch and the SC's step-up."""
         g, t = self.p.grid, self.p.turbine
-        y = np.zeros((self.n_nodes, self.n_nodes), dtype=complex)
-
-        branches: list[tuple[int, int, complex]] = []
-
-        def branch(a: int, b: int, z: complex, bsh: float = 0.0) -> None:
-            branches.append((a, b, z))
-            ya = 1.0 / z
-            y[a, a] += ya + 0.5j * bsh
-            y[b, b] += ya + 0.5j * bsh
-            y[a, b] -= ya
-            y[b, a] -= ya
-
+        el = Elements()
         n = self.n
-        # filter capacitors (turbine base susceptance cf -> network base)
-        y[np.arange(n), np.arange(n)] += 1j * t.cf * self.k_t
+        for k in range(n):  # filter capacitors (turbine base susceptance cf -> network base)
+            el.shunt_c(k, t.cf * float(self.k_t[k]))
         z_ttr = complex(g.r_ttr, g.x_ttr) * self.sb / g.s_ttr_mva
         for k in range(n):
-            if not self.plugged[k]:
-                continue
+            on = bool(self.plugged[k])
             if k >= self.n_farm:  # onshore unit: its aggregated turbine transformers + its step-up, at the pcc
-                branch(k, self.pcc, self.z_onshore_unit())
+                el.rl(k, self.pcc, self.z_onshore_unit(), on)
                 continue
             to = self.cluster_nodes[self.cluster_of[k]] if self.topology == "farm" else self.pcc
-            branch(k, int(to), z_ttr)
+            el.rl(k, int(to), z_ttr, on)
+
+        def pi_section(a: int, b: int, z: complex, bsh: float) -> None:
+            el.rl(a, b, z)
+            el.shunt_c(a, 0.5 * bsh)
+            el.shunt_c(b, 0.5 * bsh)
+
         if self.topology == "farm":
             za, ba = self._cable(g.array_km, g.array_r_ohm_km, g.array_l_mh_km, g.array_c_nf_km, g.v_array_kv)
             for cn in self.cluster_nodes:
-                branch(int(cn), self.os_mv, za, ba)
-            branch(self.os_mv, self.os_hv, complex(g.r_otr, g.x_otr) * self.sb / g.s_otr_mva)
+                pi_section(int(cn), self.os_mv, za, ba)
+            el.rl(self.os_mv, self.os_hv, complex(g.r_otr, g.x_otr) * self.sb / g.s_otr_mva)
             ns = g.export_sections
             ze, be = self._cable(
                 g.export_km / ns, g.export_r_ohm_km, g.export_l_mh_km, g.export_c_nf_km, g.v_export_kv
             )
             for s in range(ns):
-                branch(int(self.cable_nodes[s]), int(self.cable_nodes[s + 1]), ze, be)
+                pi_section(int(self.cable_nodes[s]), int(self.cable_nodes[s + 1]), ze, be)
             b_comp = g.comp_fraction * be * ns / 2.0  # half of the total charging at each end
-            y[self.os_hv, self.os_hv] -= 1j * b_comp
-            y[self.on_hv, self.on_hv] -= 1j * b_comp
-            branch(self.on_hv, self.pcc, self.z_ontr())
-        y[self.pcc, self.pcc] += 1.0 / self.z_grid()
-        branch(self.sc, self.pcc, self.z_sc_tr())
-        if self.sc_connected:
-            y[self.sc, self.sc] += 1.0 / self.z_sc_source()
-        if with_fault and self.fault_on:
-            y[self.pcc, self.pcc] += 1.0 / self.z_fault_shunt()
+            if b_comp > 0.0:  # shunt reactors: admittance -j b_comp = 1/(j x), x = 1/b_comp
+                el.rl(self.os_hv, GROUND, 1j / b_comp)
+                el.rl(self.on_hv, GROUND, 1j / b_comp)
+            el.rl(self.on_hv, self.pcc, self.z_ontr())
+        self.grid_element = len(el.a)
+        el.rl(self.pcc, GRID_SOURCE, self.z_grid())
+        el.rl(self.sc, self.pcc, self.z_sc_tr())
+        self.sc_element = len(el.a)
+        el.rl(self.sc, SC_SOURCE, self.z_sc_source(), self.sc_connected)
+        fault = with_fault and self.fault_on
+        el.rl(self.pcc, GROUND, self.z_fault_shunt() if fault else 1.0, fault)
+        return el
+
+    def build_y(self, with_fault: bool = True) -> np.ndarray:
+        """The quasi-static Y: every element's 1/z or j b (the grid's and the SC's source impedances
+        and the fault's sequence shunt among them)."""
+        el = self.elements(with_fault)
+        comp = Companion(el, self.n_nodes, 1.0)  # (h is not used for Y)
+        y = np.zeros((self.n_nodes, self.n_nodes), dtype=complex)
+        comp.stamp(y, comp.y_steady)
         if with_fault:
-            self.branch_a = np.array([b[0] for b in branches])
-            self.branch_b = np.array([b[1] for b in branches])
-            self.branch_z = np.array([b[2] for b in branches])
+            between = (comp.a < self.n_nodes) & (comp.b < self.n_nodes) & (np.array(el.bsh) == 0.0) \
+                & np.array(el.active)
+            self.branch_a, self.branch_b = comp.a[between], comp.b[between]
+            self.branch_z = np.array(el.z)[between]
+            self._elements = el
         return y
 
     def series_losses(self, v: np.ndarray) -> float:
@@ -224,6 +245,7 @@ class Network:
         factorised before (a fault cleared, an SCR restored, a state prepared by :meth:`prepare`),
         else computed (:meth:`_compute`). Counts one change either way (``n_factorizations``)."""
         key = self._state_key()
+        was_active = None if self.hist is None else self.comp.g != 0.0
         found = self._factor_cache.get(key)
         if found is None:
             self._compute()
@@ -237,6 +259,10 @@ class Network:
                 setattr(self, name, value)
         self.n_factorizations += 1
         self.dirty = False
+        if self.hist is not None:
+            self.hist.switch(was_active, self.comp)  # elements switched in or out
+            self.hist.refresh(self.comp)  # currents kept, η with the present coefficients
+            self._history_offsets()
 
     def prepare(self, **state) -> None:
         """Factorise a state the run will enter (e.g. ``fault_on=True`` before a scheduled fault)
@@ -257,7 +283,8 @@ class Network:
         assert (self._state_key(), self.dirty) == current
 
     _FACTOR_ATTRS = ("y", "lu", "zinv", "y_grid", "y_sc", "red_idx", "zcols", "zred", "all_plugged",
-                     "branch_a", "branch_b", "branch_z", "z2col", "z2", "z0")
+                     "branch_a", "branch_b", "branch_z", "z2col", "z2", "z0", "comp", "zsolve", "y_grid_u", "y_sc_u",
+                     "_elements")
 
     def _state_key(self) -> tuple:
         return (self.scr, self.fault_on, self.z_f, self.sc_connected, self.plugged.tobytes())
@@ -268,16 +295,65 @@ class Network:
         self.zinv = sla.lu_solve(self.lu, np.eye(self.n_nodes, dtype=complex))
         self.y_grid = 1.0 / self.z_grid()
         self.y_sc = 1.0 / self.z_sc_source() if self.sc_connected else 0.0
+        if self.dynamic:  # the dynamics solve G v = u - A^T eta (plant/dynamic_network.py)
+            self.comp = Companion(self._elements, self.n_nodes, self.h)
+            gmat = np.zeros_like(self.y)
+            self.comp.stamp(gmat, self.comp.g)
+            self.zsolve = np.linalg.inv(gmat)
+            # the sources enter through their branches' companion conductances
+            self.y_grid_u, self.y_sc_u = self.comp.g_of(self.grid_element), self.comp.g_of(self.sc_element)
+        else:
+            self.zsolve, self.y_grid_u, self.y_sc_u = self.zinv, self.y_grid, self.y_sc
         # Reduced solve used every step: only the turbine terminals, the pcc and the sc node carry
         # injections and only their voltages are needed by the dynamics, so
         #   [v_turbines, V_pcc, V_sc] = zred @ u,  u = [i_turb (turbine base), E_g Y_g - I_load, E'' Y''],
         # with the turbine-base scaling and the plugged mask folded into the columns (one (N+2)^2
-        # complex mat-vec). zcols @ u gives every node voltage (outputs only).
+        # complex mat-vec). zcols @ u gives every node voltage (outputs only). With the dynamic-phasor
+        # network both add the history's share (w_red, w_full).
         self.red_idx = np.r_[np.arange(self.n), self.pcc, self.sc]
         scale = np.r_[self.k_t * self.plugged, 1.0, 1.0]
-        self.zcols = np.ascontiguousarray(self.zinv[:, self.red_idx] * scale)
+        self.zcols = np.ascontiguousarray(self.zsolve[:, self.red_idx] * scale)
         self.zred = np.ascontiguousarray(self.zcols[self.red_idx])
         self.all_plugged = bool(self.plugged.all())
+
+    # ---------------------------------------------------------------- dynamic-phasor history
+    def start_history(self, v_nodes: np.ndarray, e_grid: complex, e_sc: complex) -> None:
+        """The dynamic-phasor network in steady state at the node voltages ``v_nodes`` (no-op when
+        quasi-static)."""
+        if not self.dynamic:
+            return
+        self.ensure()
+        self.hist = History(len(self.comp.g))
+        self.hist.start(self.comp, v_nodes, e_grid, e_sc)
+        self._history_offsets()
+
+    def advance_history(self, v_nodes: np.ndarray, e_grid: complex, e_sc: complex) -> None:
+        """One plant step on, from the node voltages of the step's first stage."""
+        self.hist.advance(self.comp, v_nodes, e_grid, e_sc)
+        self._history_offsets()
+
+    def _history_offsets(self) -> None:
+        self.w_full = self.zsolve @ self.hist.node_injection(self.comp)
+        self.w_red = self.w_full[self.red_idx]
+
+    def grid_current(self, v_pcc: complex, e_grid: complex) -> complex:
+        """Current from the grid source into the pcc at the pcc voltage ``v_pcc`` of this step."""
+        if self.hist is None:
+            return (e_grid - v_pcc) * self.y_grid
+        return -self.hist.current(self.comp, self.grid_element, v_pcc - e_grid)
+
+    def sc_current_last(self) -> complex:
+        """The condenser's stator current (network base) at the last step."""
+        return -complex(self.hist.i[self.sc_element])
+
+    def sc_current(self, v_sc: complex, e_sc: complex) -> complex | None:
+        """The condenser's stator current (network base) with the dynamic-phasor network (the
+        current of its subtransient branch); None when quasi-static (the machine's own algebraic
+        (E'' - v)/z'')."""
+        if self.hist is None:
+            return None
+        return -self.hist.current(self.comp, self.sc_element, v_sc - e_sc)
+
     def ensure(self) -> None:
         if self.dirty:
             self.factorize()
@@ -312,8 +388,8 @@ class Network:
         """Source vector u of the reduced solve (see ``factorize``)."""
         u = np.empty(self.n + 2, dtype=complex)
         u[: self.n] = i_turb
-        u[self.n] = e_grid * self.y_grid - i_load
-        u[self.n + 1] = e_sc * self.y_sc
+        u[self.n] = e_grid * self.y_grid_u - i_load
+        u[self.n + 1] = e_sc * self.y_sc_u
         return u
 
     def solve(self, inj: np.ndarray) -> np.ndarray:

@@ -114,6 +114,17 @@ class TurbineParams:
     """Fault ride-through gain k: additional reactive current per p.u. voltage below ``frt_v_dip``,
     reactive-current priority while it acts; 0 disables FRT, p.u./p.u. [src: VDE-AR-N 4120:2018 / the
     German grid code's default k = 2 (range 2-6); IEC 61400-27-1 K_qv]."""
+    t_ufilt: float = 0.01
+    """Voltage measurement filter of the converter controls (|v| seen by P*/V and the FRT), s
+    [src: IEC 61400-27-1 Type 4 "T_ufilt"; 0.01 s in Dynawo's WT4B example parameter set
+    (Examples/Wind/IEC/Neplan/WT4BCurrentSource2015.mo, with K_qv = 2 as here)]."""
+    k_ad: float = 0.2
+    """Active damping gain of the current loop: v_conv -= k_ad (v - phi), p.u./p.u. [paper: "an additional
+    active damping controller, which ... suppresses filter voltage oscillations" (Section II); value:
+    D'Arco, Suul, Fosso EPSR 2015 as parameterised in PowerSimulationsDynamics.jl's D'Arco inverter
+    (k_ad 0.2)]. Without it the filter capacitor rings at ~725 Hz with the dynamic-phasor network."""
+    w_ad: float = 50.0
+    """Active damping's low-pass cut-off, rad/s [src: same as k_ad (omega_ad 50 rad/s)]."""
     m_max: float = 1.15
     """Largest converter AC voltage per p.u. DC voltage (modulation limit), p.u./p.u. [assumed]."""
     kp_pll: float = 0.25
@@ -303,6 +314,11 @@ class PlantParams:
     """Synchronous condenser in service, - [paper: connected for the SC cases]."""
     topology: str = "farm"
     """"farm" (the 500 MW farm) or "single" (one turbine behind its transformer on an infinite bus)."""
+    network_model: str = "quasi_static"
+    """"quasi_static" (algebraic Y, the default: phasors at 50 Hz) or "dynamic_phasor" (every line,
+    cable, transformer, reactor and capacitor with its own dynamics in the rotating frame, trapezoidal
+    at the plant's step: plant/dynamic_network.py) [engineering reason: the cross-check of issue 28
+    item 3; run it at a simulator's step, ``dynamic_network.DYNAMIC_STEP_S``]."""
     visc_params: object | None = None
     """sdc_unit.params.ViscParams for ``hd_visc`` turbines (None: ViscParams() when first needed)."""
     onshore_units: int = 0

@@ -49,7 +49,10 @@ class Plant(Commands, RightHandSide):
             raise ValueError("method must be 'etd2', 'rk2' or 'rk4'")
         self.method = method
         self.k = 0
-        self.net = Network(self.params, n)
+        self.net = Network(self.params, n, self.step_s)
+        if self.net.dynamic and (self.substeps != 1 or method == "rk4"):
+            raise ValueError("the dynamic-phasor network advances once per plant step: substeps 1, etd2 or rk2")
+        jit = jit and not self.net.dynamic  # the compiled kernels solve the quasi-static network only
         self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind, self.params.battery)
         self.sc = Condenser(self.params.condenser)
         self.layout = StateLayout(n)
@@ -149,6 +152,7 @@ class Plant(Commands, RightHandSide):
         self.X[lay.grid + GRID_PM] = self.pm0
         self.X[lay.pcc_pll + PLL_ANGLE] = np.angle(vall[net.pcc])
         self._v_pcc_last = vall[net.pcc]  # PCC voltage of the last network solve (load linearisation)
+        net.start_history(vall, g.e_grid, self.sc.e_net(self.X[lay.condenser:lay.grid]) if net.sc_connected else 0j)
         self._cache = None
 
     def reinitialise(self) -> None:
@@ -206,6 +210,8 @@ class Plant(Commands, RightHandSide):
                 return
             self._cache = self._evaluate(self.X, self.xl, want_aux=True)
         k1, l1, aux = self._eval_cached()
+        if self.net.dynamic:  # the network's history moves to this step's voltages (dynamic_network.py)
+            self.net.advance_history(self._full_v(aux), aux["e_grid"], aux["e_sc"])
         self._v_pcc_last = aux["v_pcc"]
         counted = self._battery_after_step(aux)
         X, xl = self.X, self.xl
@@ -349,7 +355,7 @@ class Plant(Commands, RightHandSide):
         V = self._full_v(aux)
         i_sc = aux["i_sc"]
         s_sc = V[net.sc] * np.conj(i_sc)
-        ig = (aux["e_grid"] - V[net.pcc]) * net.y_grid  # from the source into the pcc
+        ig = net.grid_current(V[net.pcc], aux["e_grid"])  # from the source into the pcc
         s_grid = -V[net.pcc] * np.conj(ig)  # flowing pcc -> grid
         xsc = self.X[lay.condenser:lay.grid].real
         # phase quantities during the single-phase fault (sequence networks; see network.py)
@@ -408,6 +414,8 @@ class Plant(Commands, RightHandSide):
 
         The general path's equations, with the slow mechanical terms evaluated at every call.
         """
+        if self.net.dynamic:
+            raise ValueError("rhs_real: the dynamic-phasor network is stepped, not a right-hand side")
         self.tb.slow = None
         X = y[: self.size] + 1j * y[self.size:2 * self.size]
         xl = None if self.xl is None else y[2 * self.size:].reshape(np.shape(self.xl))

@@ -12,6 +12,8 @@ a zero imaginary part)::
     WR   rotor speed, p.u.
     B    pitch angle, deg
     XB   pitch PI integrator, deg
+    VM   measured terminal voltage |v| (first-order filter t_ufilt), p.u.
+    AD   active damping's low-pass of the terminal voltage phi (complex, common frame), p.u.
 
 Equations (t in s, w0 = OMEGA0):
 
@@ -19,9 +21,11 @@ Equations (t in s, w0 = OMEGA0):
     v_conv limited to |v_conv| <= m_max v_dc                     average model, DC-limited
     grid-following (PLL frame, rot = e^{j theta}):
         e_v = Im(v e^{-j theta}) / max(|v|, 0.1),  dtheta/dt = w0 (kp_pll e_v + x_p), dx_p/dt = ki_pll e_v
-        i* = (P* - j Q*) / max(V_d, 0.3)  (circular limit i_max_gfl),  e = i* - i e^{-j theta}
+        t_ufilt dV_m/dt = |v| - V_m                                 voltage measurement (IEC 61400-27-1)
+        i* = (P* - j Q*) / max(V_m, 0.3)  (circular limit i_max_gfl; FRT on V_m),  e = i* - i e^{-j theta}
         P* = min(w_r^3, 1) (MPPT curve: optimal tip-speed ratio below rated) or a commanded value
-        v_conv = v + j lf i + (kpc e + kic xi) e^{j theta},  dxi/dt = e  (frozen while DC-limited)
+        v_conv = v + j lf i + (kpc e + kic xi) e^{j theta} - k_ad (v - phi),  dxi/dt = e  (frozen while DC-limited)
+        dphi/dt = w_ad (v - phi)                                    active damping (D'Arco 2015)
     hd_visc: v_conv = sdc_unit.law.outputs(x, meas).v_ref (law states integrated by the plant)
     remote:  v_conv = last received reference (held)
     DC link: (tau_dc/2) d(v_dc^2)/dt = P_me + P_batt - P_conv - P_chop,  P_conv = Re(v_conv conj(i))
@@ -54,8 +58,8 @@ from plant.battery import BatteryBank
 from plant.params import BatteryParams, TurbineParams
 from sdvisc.vocabulary import OMEGA0
 
-IF, XI, TH, XP, W, XD, WR, B, XB = range(9)
-NS = 9
+IF, XI, TH, XP, W, XD, WR, B, XB, VM, AD = range(11)
+NS = 11
 
 GFL, HD_VISC, REMOTE = 0, 1, 2
 MODES = {"grid_following": GFL, "hd_visc": HD_VISC, "remote": REMOTE}
@@ -159,9 +163,9 @@ class TurbineBank:
         p_gsc = laws.dc_link_control(1.0, vdc, S[XD].real, 0.0, 0.0, p.v_dc_ref, p.kp_dc, p.ki_dc, p.p_me_min,
                                      p.p_me_max)[0]
         q_star = self.q_cmd + self.q_wpp
-        e = _complex(*laws.gfl_current_ref(p_gsc, -q_star, vp.real, p.i_max_gfl, p.frt_v_dip,
+        e = _complex(*laws.gfl_current_ref(p_gsc, -q_star, S[VM].real, p.i_max_gfl, p.frt_v_dip,
                                             p.frt_k_qv)) - i * rot.conj()
-        vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot
+        vconv = v + 1j * p.lf * i + (p.kpc * e + p.kic * S[XI]) * rot - p.k_ad * (v - S[AD])
         return vconv, e, ev
 
     def pll_error(self, S, v):
@@ -187,7 +191,7 @@ class TurbineBank:
         pme, dxd, p_dc, pbatt, ibatt = self._machine_side(S, vdc, pconv, sl, dc)
         dS = np.empty_like(S) if out is None else out
         dSr = dS.real
-        dS.imag[TH:] = 0.0  # real rows
+        dS.imag[TH:AD] = 0.0  # real rows
         d -= complex(p.rf, p.lf) * i  # v_conv - v - (rf + j lf) i
         np.multiply(d, OMEGA0 / p.lf, out=dS[IF])
         dS[XI] = np.where(lim | ext_mask, 0.0, e)  # frozen while modulation-limited
@@ -199,6 +203,8 @@ class TurbineBank:
         np.multiply(sl["paero"] - pme, sl["inv2hw"], out=dSr[WR])
         dSr[B] = sl["db"]
         dSr[XB] = sl["dxb"]
+        dSr[VM] = (np.abs(v) - S.real[VM]) / p.t_ufilt
+        np.multiply(v - S[AD], p.w_ad, out=dS[AD])
         aux = {"vconv": vconv, "vdc": vdc, "pme": pme, "pbatt": pbatt, "ibatt": ibatt, "paero": sl["paero"],
                "vlim": lim, "ev": ev}
         return dS, aux
@@ -216,13 +222,15 @@ class TurbineBank:
         ev = laws.pll_error(vp.imag, v.real, v.imag)
         vdc = np.sqrt(np.maximum(S.real[W], 1e-4))
         dc = self.dc_control(S, vdc, sl)
-        e = _complex(*laws.gfl_current_ref(dc[0], sl["sref"].imag, vp.real, p.i_max_gfl, p.frt_v_dip, p.frt_k_qv))
+        e = _complex(*laws.gfl_current_ref(dc[0], sl["sref"].imag, S.real[VM], p.i_max_gfl, p.frt_v_dip, p.frt_k_qv))
         e -= i * rotc
         # d = v_conv - v; grid-following: j lf i + (kpc e + kic xi) e^{j theta}
         d = p.kpc * e
         d += p.kic * S[XI]
         d *= rotc.conj()
         d += 1j * p.lf * i
+        if p.k_ad:
+            d -= p.k_ad * (v - S[AD])
         if any_ext:
             d = np.where(ext_mask, vconv_ext - v, d)
         vconv = v + d
@@ -277,6 +285,8 @@ class TurbineBank:
         beta = np.where(self.p_aero(wr0, 0.0) > pconv, 0.5 * (lo + hi), 0.0)
         S[B] = beta
         S[XB] = beta
+        S[VM] = np.abs(v)
+        S[AD] = v
         return S
 
     def bumpless_gfl(self, S, v, idx, vconv_now):
@@ -294,4 +304,5 @@ class TurbineBank:
         S[XD, idx] = s_now.real - p.kp_dc * (vdc - p.v_dc_ref)
         vconv_gfl, e, _ = self.gfl_vconv(S, v)
         rot = np.exp(1j * S[TH, idx].real)
-        S[XI, idx] = ((vconv_now - v[idx] - 1j * p.lf * i) * rot.conj() - p.kpc * e[idx]) / p.kic
+        damping = p.k_ad * (v[idx] - S[AD, idx])
+        S[XI, idx] = ((vconv_now - v[idx] - 1j * p.lf * i + damping) * rot.conj() - p.kpc * e[idx]) / p.kic

@@ -22,7 +22,7 @@ from numba import njit
 
 from plant import turbine_laws as laws
 from plant.slots import Const, Row, Slow
-from plant.turbine import GFL, IF, REMOTE, TH, WR, XB, XD, XI, XP, B, W
+from plant.turbine import AD, GFL, IF, REMOTE, TH, VM, WR, XB, XD, XI, XP, B, W
 from sdvisc.vocabulary import OMEGA0
 
 _OPTS = dict(error_model="numpy")  # IEEE division as in numpy
@@ -74,6 +74,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
     p_me_max = constants[Const.p_me_max]
     kpc, kic, i_max = constants[Const.kpc], constants[Const.kic], constants[Const.i_max_gfl]
     v_dip, k_qv = constants[Const.frt_v_dip], constants[Const.frt_k_qv]
+    inv_t_ufilt, k_ad, w_ad = constants[Const.inv_t_ufilt], constants[Const.k_ad], constants[Const.w_ad]
     j_lf = complex(0.0, constants[Const.lf])
     z_filter = complex(constants[Const.rf], constants[Const.lf])
     remote_i_ref = constants[Const.remote_i_ref] != 0.0
@@ -99,9 +100,10 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
             g = v_conv - v - j_lf_i
             e_i = 0j
         else:
-            i_ref_d, i_ref_q = gfl_current_ref(p_gsc, slow[Slow.s_ref_im, j], v_pll.real, i_max, v_dip, k_qv)
+            i_ref_d, i_ref_q = gfl_current_ref(p_gsc, slow[Slow.s_ref_im, j], X[VM * n + j].real, i_max, v_dip,
+                                               k_qv)
             e_i = complex(i_ref_d, i_ref_q) - i * to_pll
-            g = (kpc * e_i + kic * X[XI * n + j]) * to_pll.conjugate()
+            g = (kpc * e_i + kic * X[XI * n + j]) * to_pll.conjugate() - k_ad * (v - X[AD * n + j])
             v_conv = v + j_lf_i + g
         vc_re, vc_im, limited = modulation_limit(v_conv.real, v_conv.imag, v_dc, m_max)
         if limited:  # the current-PI integrator is frozen while DC-limited
@@ -121,5 +123,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
         dX[WR * n + j] = slow[Slow.p_aero_over_2hw, j] - p_me * slow[Slow.inv_2hw, j]
         dX[B * n + j] = slow[Slow.d_beta, j]
         dX[XB * n + j] = slow[Slow.d_xbeta, j]
+        dX[VM * n + j] = (abs(v) - X[VM * n + j].real) * inv_t_ufilt
+        dX[AD * n + j] = (v - X[AD * n + j]) * w_ad
         if want:
             _write_rows(rows, j, v, i, v_dc, (kp_pll * e_v + x_pll) + 1.0, p_me, v_conv, i_batt)
