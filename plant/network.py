@@ -343,8 +343,7 @@ class Network:
         return -self.hist.current(self.comp, self.grid_element, v_pcc - e_grid)
 
     def sc_current_last(self) -> complex:
-        """The condenser's stator current (network base) at the last step."""
-        return -complex(self.hist.i[self.sc_element])
+        return -complex(self.hist.i[self.sc_element])  # the SC's stator current (network base), last step
 
     def sc_current(self, v_sc: complex, e_sc: complex) -> complex | None:
         """The condenser's stator current (network base) with the dynamic-phasor network (the
