@@ -78,9 +78,10 @@ class Plant(Commands, RightHandSide):
         self._init_steady_state()
 
     # ================================================================== initialisation
-    def _load_flow(self):
-        """Fixed-point load flow of the present P*/Q* with every turbine a PQ source and the SC
-        unloaded: (turbine terminal voltages, turbine currents, every node voltage)."""
+    def _load_flow(self, start: np.ndarray | None = None):
+        """Load flow of the present P*/Q* with every turbine a PQ source and the SC unloaded, from a
+        flat start or the node voltages ``start``: (turbine terminal voltages, turbine currents,
+        every node voltage)."""
         n, net, g = self.n, self.net, self.params.grid
         p_me = self.tb.p_star(self.tb.wr0())  # the machine side's power: P_conv in steady state
         q_star = self.tb.q_cmd + self.tb.q_wpp
@@ -104,7 +105,8 @@ class Plant(Commands, RightHandSide):
             return np.r_[r.real, r.imag]
 
         # Newton-type solve (the plain fixed point V = Z I(V) can cycle when the farm absorbs Q)
-        sol = root(residual, np.r_[np.ones(net.n_nodes), np.zeros(net.n_nodes)], method="hybr", tol=1e-14)
+        x0 = np.r_[np.ones(net.n_nodes), np.zeros(net.n_nodes)] if start is None else np.r_[start.real, start.imag]
+        sol = root(residual, x0, method="hybr", tol=1e-14)
         vall = sol.x[:net.n_nodes] + 1j * sol.x[net.n_nodes:]
         if np.max(np.abs(residual(sol.x))) > 1e-10:
             raise RuntimeError(f"the initial load flow did not converge ({sol.message})")

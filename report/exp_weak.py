@@ -12,6 +12,7 @@ import functools
 import numpy as np
 
 from plant.cases import comparison_visc_plant
+from plant.static_limit import static_limit
 from report import figures, net_arrangement
 from report.boundary import Boundary, smallest_sufficient, threshold
 from report.plantcases import bare_plant, sc_plant, visc_plant
@@ -142,7 +143,11 @@ def _f7(ctx: Context) -> dict[str, Finding]:
             ctx.numbers[f"{criterion} boundary {name}"] = {"boundary_scr": b.value, "bracket": b.bracket,
                                                            "evaluations": b.evaluations, "note": b.note}
     val = {n: {c: b.value for c, b in bs.items()} for n, bs in bounds.items()}
-    ev = {n: "stable: " + _evidence(bounds[n]["stable"], traces[n]["stable"]) + "; oscillation only: "
+    static = {n: static_limit(CONFIGS[n]()) for n in F7_CONFIGS}  # the load-flow nose of each case
+    ctx.numbers["static transfer limit"] = static
+    ev = {n: f"static transfer limit (no load flow below; plant controller at its limit) SCR {static[n]:.2f}: "
+          f"{'the loss of stability above it is one of damping, not of transfer capacity' if _above(val[n]['stable'], static[n]) else 'the boundary is the static limit'}; "
+          "stable: " + _evidence(bounds[n]["stable"], traces[n]["stable"]) + "; oscillation only: "
           + _evidence(bounds[n]["damped"], traces[n]["damped"]) for n in F7_CONFIGS}
     found["F7.a"] = _boundary_finding(bounds["none"]["stable"], bounds["none"]["damped"], 2.04, ev["none"])
     found["F7.b"] = _boundary_finding(bounds["SC"]["stable"], bounds["SC"]["damped"], 1.58, ev["SC"],
@@ -156,6 +161,10 @@ def _f7(ctx: Context) -> dict[str, Finding]:
                         "boundaries can come out higher than in the full report." if ctx.quick else ""))
     _f7_figure(ctx, traces)
     return found
+
+
+def _above(boundary: float | None, static: float) -> bool:
+    return boundary is not None and boundary > static + 0.05
 
 
 def _f7c(val: dict[str, dict[str, float | None]], ev: dict[str, str]) -> Finding:
