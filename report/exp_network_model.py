@@ -139,7 +139,7 @@ def _nm_f6(ctx: Context) -> Finding:
                 "within a few cycles (a mode of the onshore unit's hd_visc law with the dynamic network's "
                 "elements: the quasi-static network cannot have it, and the same unit grid-following at P = 0 "
                 "stays at rest), so F6.d's dynamic number is the mean of that oscillation")
-    f6_figure(ctx, (r_qs, t_qs), (r_sc, t_on), qs)
+    f6_figure(ctx, (r_qs, t_qs), (r_sc, t_on), qs, (peak / qs["i_initial"], i1_ratio))
     return Finding(f"SC first peak: quasi-static I'' {qs['i_initial']:.2f} (κ I'' {qs['i_peak_max']:.2f}), dynamic "
                    f"{peak:.2f} p.u. ({peak / qs['i_initial']:.2f} I'', {d['a']:+.1%} from the range); SC terminal V1 {qs['v_t_sc']:.3f} vs {dp['v_t_sc']:.3f} "
                    f"({d['b']:+.1%}); SDViSC terminal V1 {qs['v_t_v']:.3f} vs {dp['v_t_v']:.3f} ({d['d']:+.1%})",
@@ -151,7 +151,8 @@ def _nm_f6(ctx: Context) -> Finding:
                     "visc_terminal_ptp_before_fault": ringing, "visc_terminal_hz_before_fault": ring_hz})
 
 
-def f6_figure(ctx: Context, qs: tuple[dict, float], dp: tuple[dict, float], nums: dict) -> None:
+def f6_figure(ctx: Context, qs: tuple[dict, float], dp: tuple[dict, float], nums: dict,
+              ratios: tuple[float, float]) -> None:
     """F6's SC current and PCC voltage, quasi-static vs dynamic-phasor, overlaid (time from the fault)."""
     fig, axes = figures.new(2)
     for ax in axes[:, 0]:
@@ -168,7 +169,9 @@ def f6_figure(ctx: Context, qs: tuple[dict, float], dp: tuple[dict, float], nums
     for ax in axes[:, 0]:
         ax.legend(fontsize=7)
     figures.save(ctx, fig, "nm_f6_network_models", "F6's fault on the two network models: the dynamic one has the "
-                 "SC current's DC offset (first peak ≈ κ I''), the quasi-static one none.", prefix="Cross-check: ")
+                 f"SC current's DC offset, the 50 Hz ripple of its phasor (first peak {ratios[0]:.2f} I'' in the phase, "
+                 f"{ratios[1]:.2f} in the positive sequence; κ = {nums['kappa']:.2f}), the quasi-static one none.",
+                 prefix="Cross-check: ")
 
 
 # ------------------------------------------------------------------------------------------------ F7
@@ -208,6 +211,8 @@ def _nm_f7(ctx: Context) -> Finding:
                     f" ({'confirmed' if ok else 'not confirmed'}; quasi-static in the same window: "
                     f"{states['above']['quasi-static'].state} / {states['below']['quasi-static'].state})")
     verdict = "yes" if all(confirmed) else "partly" if any(confirmed) else "no"
+    level = level_after_scr_step(0.6 if ctx.quick else 1.2)
+    measured["level_check"] = level
     detail = "; ".join(f"{n}, {key}: {st['v_end']:.3f} p.u. at the end, p-p {st['ptp_last_s']:.3f}"
                        + (f" at ≈ {ms['hz'][key]:.1f} Hz" if ms["hz"].get(key) and st["ptp_last_s"] >= PTP_DAMPED else "")
                        for n, ms in measured.items() for key, st in ms.items() if key != "hz" and isinstance(st, dict))
@@ -227,7 +232,21 @@ def _nm_f7(ctx: Context) -> Finding:
                    "which the quasi-static network drops) take damping from it, i.e. the dynamic network's boundary "
                    f"lies above the quasi-static one + {SCR_STEP} (inferred, not searched: a dynamic bisection would "
                    f"take ≈ 10 runs of ≈ 40 s per case); the SDViSC case has besides the onshore unit's own high-frequency "
-                   "ringing on the dynamic network (NM.F6's reason)", measured)
+                   "ringing on the dynamic network (NM.F6's reason). Level check, far from any boundary: the farm "
+                   f"alone, SCR 7.14 → {level['scr']:g}, {level['after_s']:g} s after: V_pcc {level['quasi-static']:.4f} "
+                   f"quasi-static, {level['dynamic']:.4f} dynamic ({level['rel_diff']:+.1%}, p-p over the last 0.2 s "
+                   f"{level['ptp_dynamic']:.1e}): after an SCR change the dynamic network settles at another operating "
+                   "point, where both should have the same steady state (plant/dynamic_network.py) — a difference of "
+                   "the plant's dynamic network to look into, not of the weak-grid dynamics", measured)
+
+
+def level_after_scr_step(after: float, scr: float = 3.0) -> dict:
+    """The settled V_pcc of the farm alone after SCR 7.14 → ``scr`` (stable on both networks), both ways."""
+    runs = {m: scr_run(plant.cases.bare_plant, scr, after, m == "dynamic") for m in ("quasi-static", "dynamic")}
+    v = {m: float(r["v_pcc"][-1]) for m, r in runs.items()}
+    last = runs["dynamic"]["t"] >= DYN_T0 + after - 0.2
+    return {"scr": scr, "after_s": after, **v, "rel_diff": rel(v["quasi-static"], v["dynamic"]),
+            "ptp_dynamic": float(np.ptp(runs["dynamic"]["v_pcc"][last]))}
 
 
 # ------------------------------------------------------------------------------------------------ F8
