@@ -54,6 +54,7 @@ class Plant(Commands, RightHandSide):
             raise ValueError("the dynamic-phasor network advances once per plant step: substeps 1, etd2 or rk2")
         jit = jit and not self.net.dynamic  # the compiled kernels solve the quasi-static network only
         self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind, self.params.battery)
+        self.tb.ext_active_damping = self.net.dynamic
         self.sc = Condenser(self.params.condenser)
         self.layout = StateLayout(n)
         self.size = self.layout.size

@@ -104,6 +104,10 @@ class TurbineBank:
         self.i_hold = np.zeros(n, dtype=complex)
         self.last_rx_step = np.zeros(n, dtype=np.int64)
         self.fallback_enabled = True
+        # the converters' active damping also under hd_visc/remote references: set by the plant with the
+        # dynamic-phasor network only (the quasi-static network has no filter resonance to damp; there
+        # the ViSC's inner loop is the law's or the SDC's, as the report's pinned results have it)
+        self.ext_active_damping = False
         self.fell_back = np.zeros(n, dtype=bool)
         self.fallbacks = np.zeros(n, dtype=np.int64)
         self.trips = np.zeros(n, dtype=np.int64)
@@ -232,7 +236,10 @@ class TurbineBank:
         if p.k_ad:
             d -= p.k_ad * (v - S[AD])
         if any_ext:
-            d = np.where(ext_mask, vconv_ext - v, d)
+            ext = vconv_ext - v
+            if self.ext_active_damping:  # the converter's own active damping under a ViSC's reference
+                ext = ext - p.k_ad * (v - S[AD])
+            d = np.where(ext_mask, ext, d)
         vconv = v + d
         vc_re, vc_im, lim = laws.modulation_limit(vconv.real, vconv.imag, vdc, p.m_max)
         if lim.any():
