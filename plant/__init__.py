@@ -1,1 +1,3 @@
-"""plant package."""
+"""The plant simulator: the 50-turbine farm and its grid (network, turbines, condenser, battery, plant
+controller) and its GTNET-SKT service.
+"""

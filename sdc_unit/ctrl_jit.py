@@ -11,7 +11,7 @@ that one turbine with the same compiled sample as the batch path
 (:func:`sdc_unit.tustin_jit._advance_one`) and writes the CTRL datagram (header, ``wt``, ``seq``,
 ``meas_seq``, the seven :data:`sdvisc.vocabulary.CTRL_OUTPUTS`, ``flags``) into a byte buffer,
 with the checks of :func:`sdvisc.wire.encode`. The admission of the datagram (wire checks, range,
-sequence gate) stays with the service (:mod:`sdc_unit.fast_meas`); this module has no socket, no
+sequence gate) stays with the service (:mod:`sdc_unit.intake`, :mod:`sdc_unit.admission`); this module has no socket, no
 clock and no counters. A unit test holds its bytes to ``wire.encode`` of the batch path's answer.
 """
 

@@ -45,8 +45,9 @@ def test_quick_report_of_one_physical_and_one_cyber_experiment(tmp_path):
     assert summary["time"]["time_scale"] == k == calibrated["time"]["calibration"]["time_scale"] * (2 if again else 1)
     ports = summary["switch_ports"]  # the report's default: AF_XDP, or system ports where refused, with the reason
     assert ports["requested"] == "afxdp" and (ports["used"] == "afxdp" or ports["refused"]), ports
-    # computed from the run: the worst RMS deviation from the HD ViSC is a number, and the SDViSCs got CTRL
-    assert rows["F1net.a"]["measured"]["worst_pct"] >= 0
+    # computed from the run: the SDC through the network follows the HD ViSC (full report: 1.01 % RMS of the
+    # range; a run that lost control or tripped is tens of %), and the SDViSCs got CTRL
+    assert 0.0 < rows["F1net.a"]["measured"]["worst_pct"] < 10.0, rows["F1net.a"]["measured"]
     for wt in ("wt1_1", "wt2_1", "wt3_1", "wt4_1"):
         assert summary["turbines"][wt]["packets"]["ctrl_rx"] > 0.9 * (summary["duration_s"] - 0.2) / summary["step_s"]
     html = (out / "index.html").read_text()

@@ -19,7 +19,7 @@ FLOORS = {
     "plant": 2,  # the plant model (uses the SDC's law for its HD ViSC turbines) and its service
     "scenarios": 3,  # schema, runner, CLI, summary
     "benchmarks": 4,
-    "report": 4,  # the paper report (python -m report): runs scenarios as subprocesses, never imports them
+    "report": 4,  # the paper report (python -m report): runs scenarios as subprocesses; imports two constants of them
 }
 SERVICES = {"service", "app", "__main__", "owfcc", "fuzz"}  # processes, not models
 MODELS = {("sdc_unit", "law"), ("sdc_unit", "params"), ("sdc_unit", "blocks"), ("sdc_unit", "discrete"),
