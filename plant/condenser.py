@@ -55,12 +55,15 @@ class Condenser:
         (tests/unit/test_dynamic_network.py checks it decays); with the stator quasi-static it is
         neglected with the other dψ/dt terms, as the subtransient model is derived.
         """
-        p = self.p
-        delta, eq1, eq2, ed2 = x[DELTA].real, x[EQ1].real, x[EQ2].real, x[ED2].real
+        delta = x[DELTA].real
         im = i_net * 1j * cmath.exp(-1j * delta)
-        d_eq2 = (eq1 - eq2 - (p.xd1 - p.xd2) * im.real) / p.td02
-        d_ed2 = (-ed2 + (p.xq - p.xd2) * im.imag) / p.tq02
+        d_eq2, d_ed2 = self._subtransient(x[EQ1].real, x[EQ2].real, x[ED2].real, im.real, im.imag)
         return -complex(d_ed2, d_eq2) * cmath.exp(1j * delta) / OMEGA0
+
+    def _subtransient(self, eq1: float, eq2: float, ed2: float, i_d: float, i_q: float) -> tuple[float, float]:
+        """(de''_q/dt, de''_d/dt): the subtransient windings' equations, written once."""
+        p = self.p
+        return (eq1 - eq2 - (p.xd1 - p.xd2) * i_d) / p.td02, (-ed2 + (p.xq - p.xd2) * i_q) / p.tq02
 
     def rhs(self, x, v_term: complex, v_reg: float, e_net: complex | None = None, i_net: complex | None = None):
         """(dx, I): x as an array or a list of 7 floats; ``e_net`` = ``self.e_net(x)`` if known;
@@ -82,8 +85,7 @@ class Condenser:
             OMEGA0 * (w - 1.0),
             (-(ed2 * i_d + eq2 * i_q) - p.d * (w - 1.0)) / (2.0 * p.h),
             (efd - eq1 - (p.xd - p.xd1) * i_d) / p.td01,
-            (eq1 - eq2 - (p.xd1 - p.xd2) * i_d) / p.td02,
-            (-ed2 + (p.xq - p.xd2) * i_q) / p.tq02,
+            *self._subtransient(eq1, eq2, ed2, i_d, i_q),
             (u - xll) / p.avr_tb,
             defd,
         ], i_net

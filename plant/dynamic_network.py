@@ -171,6 +171,7 @@ class History:
         active = comp.g != 0.0
         closing, opening = active & ~was_active, was_active & ~active
         self.i_out[opening] += self.i[opening]
+        self.i_out[closing] = 0.0  # closed again before its old current had decayed: the element carries it
         self.i[opening | closing] = 0.0
         self.dv[opening | closing] = 0.0
 

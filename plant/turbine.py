@@ -233,12 +233,12 @@ class TurbineBank:
         d += p.kic * S[XI]
         d *= rotc.conj()
         d += 1j * p.lf * i
-        if p.k_ad:
-            d -= p.k_ad * (v - S[AD])
+        damping = p.k_ad * (v - S[AD]) if p.k_ad else 0.0
+        d -= damping
         if any_ext:
             ext = vconv_ext - v
             if self.ext_active_damping:  # the converter's own active damping under a ViSC's reference
-                ext = ext - p.k_ad * (v - S[AD])
+                ext = ext - damping
             d = np.where(ext_mask, ext, d)
         vconv = v + d
         vc_re, vc_im, lim = laws.modulation_limit(vconv.real, vconv.imag, vdc, p.m_max)
