@@ -9,13 +9,16 @@ plant gets k times more wall time per step. k = 1 is real time.
 the real rate from a shared ``epoch`` (a wall time all processes of a run agree on), so that
 timestamps written by one process (GTNET headers, events) and read by another compare directly,
 and every difference of two readings is in simulated seconds. :meth:`Clock.sleep` sleeps
-``dt`` simulated seconds (k·dt of wall time). Tests inject a :class:`ManualClock`.
+``dt`` simulated seconds (k·dt of wall time). Tests inject a :class:`ManualClock`, or give a
+:class:`Clock` a wall clock of their own (``wall`` and ``wall_sleep``: by default the real
+``time.time`` and ``time.sleep``).
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 
 
 @dataclass(frozen=True)
@@ -24,6 +27,8 @@ class Clock:
 
     time_scale: float = 1.0
     epoch: float = 0.0
+    wall: Callable[[], float] = field(default=time.time, repr=False, compare=False)
+    wall_sleep: Callable[[float], None] = field(default=time.sleep, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         if not self.time_scale >= 1.0:
@@ -31,7 +36,7 @@ class Clock:
 
     def now(self) -> float:
         """Virtual seconds since the Unix epoch (equal to the wall clock at ``epoch``)."""
-        wall = time.time()
+        wall = self.wall()
         return self.epoch + (wall - self.epoch) / self.time_scale if self.time_scale != 1.0 else wall
 
     def to_wall(self, t: float) -> float:
@@ -45,13 +50,13 @@ class Clock:
     def sleep(self, dt: float) -> None:
         """Sleep ``dt`` simulated seconds."""
         if dt > 0:
-            time.sleep(dt * self.time_scale)
+            self.wall_sleep(dt * self.time_scale)
 
     def sleep_until(self, t: float) -> float:
         """Sleep until this clock reads ``t`` (at once if it already does); returns :meth:`now`."""
-        wait = self.to_wall(t) - time.time()
+        wait = self.to_wall(t) - self.wall()
         if wait > 0:
-            time.sleep(wait)
+            self.wall_sleep(wait)
         return self.now()
 
     def wall_s(self, dt: float) -> float:
