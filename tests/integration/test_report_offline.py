@@ -1,5 +1,8 @@
 """``python -m report --quick --only F6`` end to end (offline: no network, no root): the page, the
-claims and the figures are written, and every claim of the experiment has a computed row."""
+claims and the figures are written, and every claim of the experiment has a computed row.
+
+Marked slow (the whole module): report runs in child processes, F6's offline simulation among them,
+not pure unit tests."""
 
 from __future__ import annotations
 
@@ -7,7 +10,11 @@ import json
 import subprocess
 import sys
 
+import pytest
+
 from tests.integration.helpers import ROOT
+
+pytestmark = pytest.mark.slow
 
 
 def test_quick_report_of_one_offline_experiment(tmp_path):

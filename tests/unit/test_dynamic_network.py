@@ -69,6 +69,7 @@ def fault_runs():
     return _fault_runs()
 
 
+@pytest.mark.slow
 def test_fault_voltage_agrees_with_the_quasi_static_network(fault_runs):
     """Once the network's own transients (the offset, τ = L/R ≈ 30–200 ms) have mostly passed, the
     PCC voltage in the fault and after it is the quasi-static one within 2 %."""
@@ -80,6 +81,7 @@ def test_fault_voltage_agrees_with_the_quasi_static_network(fault_runs):
     assert abs(dp["v_pcc"][after].mean() / qs["v_pcc"][after].mean() - 1.0) < 0.02
 
 
+@pytest.mark.slow
 def test_condenser_peak_has_the_dc_offset_of_iec_60909(fault_runs):
     """The SC's first peak over its initial symmetrical current I'' (the quasi-static current at the
     onset) is IEC 60909's κ = 1.02 + 0.98 exp(-3 R/X) of its path (r_a, x''_d + x_tr: R/X = 0.01,

@@ -53,6 +53,7 @@ def test_on_samples_reads_the_sdc_run_at_its_own_rows():
     assert "trips" in s
 
 
+@pytest.mark.slow
 def test_halving_the_reference_step_changes_it_by_less_than_a_tenth_of_a_percent():
     ref_case = hd.reference_case(SMALL)
     at_50 = run_hd(ref_case, hd.reference_visc_params())
@@ -63,6 +64,7 @@ def test_halving_the_reference_step_changes_it_by_less_than_a_tenth_of_a_percent
     assert _worst(change) < 0.1, change  # measured 0.037 % (δ)
 
 
+@pytest.mark.slow
 def test_f1_tustin_at_067ms_against_the_50us_reference():
     # F1.a of ./testbed report: the SDC at 0.67 ms on a plant at 0.67 ms / 13, no added delay
     case = FaultCase(plant_steps_per_sample=hd.simulator_steps_per_sample(0.67e-3))

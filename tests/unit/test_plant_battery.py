@@ -107,6 +107,7 @@ def _f5_run(c_rate=None, battery=True, t_end=2.5):
     return p, r
 
 
+@pytest.mark.slow
 def test_f5_battery_reduces_the_dip_within_its_limits():
     """F5 (docs/report.md), offline, 2.5 s: +100 MW at 1 s with four hd_visc SDViSCs. The battery holds
     the DC link up and makes the PCC frequency nadir shallower; with a 1 C limit (0.22 p.u.) the

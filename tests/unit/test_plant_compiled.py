@@ -114,6 +114,7 @@ def _errors(ya, yb, size):
     return e_i, e_w, float(np.max(np.abs(ya[:, 2 * size:] - yb[:, 2 * size:])))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("remote_apply", ["v_ref", "i_ref"])
 def test_compiled_path_converges_to_solve_ivp(remote_apply):
     ref = _run_ivp(_three(remote_apply))

@@ -5,6 +5,7 @@ segments between the events; the plant runs its own ETD2/Heun steps of 0.67 ms.
 """
 
 import numpy as np
+import pytest
 from scipy.integrate import solve_ivp
 
 from plant.params import PlantParams
@@ -88,6 +89,7 @@ def test_grid_following_matches_solve_ivp():
     _compare("grid_following", 0.0005)
 
 
+@pytest.mark.slow
 def test_hd_visc_matches_solve_ivp():
     # z_f = 0.002 p.u. (network base): V drops to ~0.89 p.u., the ViSC current rises to ~0.94 p.u.
     # without reaching the 1.5 p.u. limiter, whose switching (a discontinuous right-hand side)

@@ -5,6 +5,7 @@ offset only on the dynamic network, and the SC's terminal voltage in the fault i
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import plant.cases
 from plant.dynamic_network import DYNAMIC_STEP_S
@@ -33,6 +34,7 @@ def test_osc_hz_finds_the_frequency_of_a_ringing_trace():
     assert abs(osc_hz(t, 1.0 + 0.01 * t + 0.1 * np.sin(2 * np.pi * 7.0 * t)) - 7.0) < 0.2
 
 
+@pytest.mark.slow
 def test_nm_f6_row_the_dc_offset_only_on_the_dynamic_network(tmp_path):
     """The row as the report makes it with --quick (the dynamic runs 0.3 s: ≈ 10–20 s here)."""
     found = _nm_f6(Context(out_dir=tmp_path, quick=True))

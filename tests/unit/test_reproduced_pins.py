@@ -41,6 +41,7 @@ def test_f6b_the_sc_residual_terminal_voltage_is_above_the_papers_0p7(f6):
     assert v > f6["F6.b"].measured["v1_pcc_none"]  # the SC lifts its own terminal above the faulted PCC
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("quick", [True, False], ids=["quick", "full"])
 def test_f7a_the_farm_alone_loses_stability_near_scr_2p04(quick):
     t_end, xtol = exp_weak.f7_search_settings(quick)

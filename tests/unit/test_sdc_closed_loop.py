@@ -114,6 +114,7 @@ def rel_rms(case, ts=0.67e-3, delay=1, exclude=()):
     return out
 
 
+@pytest.mark.slow
 def test_vstep_tracks_continuous_reference():
     r = rel_rms("vstep")
     assert r["v"] < 0.01 and r["q"] < 0.01 and r["e"] < 0.01
@@ -122,10 +123,12 @@ def test_vstep_tracks_continuous_reference():
     assert r["delta"] < 0.04
 
 
+@pytest.mark.slow
 def test_vstep_delta_converges_with_ts():
     assert rel_rms("vstep", ts=0.2e-3)["delta"] < 0.01
 
 
+@pytest.mark.slow
 def test_dip_tracks_continuous_reference():
     r = rel_rms("dip")
     assert r["v"] < 0.01 and r["e"] < 0.01
@@ -137,6 +140,7 @@ def test_dip_tracks_continuous_reference():
     assert r["delta"] < 0.35
 
 
+@pytest.mark.slow
 def test_dip_delta_converges_with_ts():
     assert rel_rms("dip", ts=0.2e-3, delay=0)["delta"] < 0.01
 

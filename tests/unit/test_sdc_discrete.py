@@ -190,6 +190,7 @@ FLOAT32_BOUNDS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("ts", sorted(FLOAT32_BOUNDS))
 def test_float32_and_cumulative_track_float64_tustin(ts):
     ref = Loop(1, ts=ts)

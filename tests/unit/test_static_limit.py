@@ -3,8 +3,12 @@ refinement, and F7's dynamic boundary (losses of stability there are of damping,
 
 from __future__ import annotations
 
+import pytest
+
 from plant.cases import bare_plant
 from plant.static_limit import static_limit
+
+pytestmark = pytest.mark.slow  # two bisections of the farm's load flow (about 5 s)
 
 
 def test_static_limit_bound_refinement_and_place_below_the_dynamic_boundary():
