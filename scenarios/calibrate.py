@@ -364,13 +364,3 @@ class Calibration:
                 if msg.header is not None:
                     back[wt].append((t_rx - (msg.header.sec * 1_000_000_000 + msg.header.nsec)) * 1e-6)
 
-
-def calibration_line(calibration: dict) -> str:
-    """One line for the terminal: what each candidate measured and what was chosen."""
-    parts = []
-    for t in calibration["trials"]:
-        p99 = t["round_trip_p99_sim_ms"]
-        parts.append(f"k={t['k']:g}: plant {t['plant_busy']:.0%}, SDC {t['sdc_busy']:.0%}, MEAS->CTRL p99 "
-                     + (f"{p99:.3f} ms" if p99 is not None else "-") + (" ok" if t["ok"] else ""))
-    verdict = "chosen" if calibration["met"] else "the largest tried; limits NOT met"
-    return f"sdvisc: time scale {calibration['time_scale']:g} ({verdict}): " + "; ".join(parts)

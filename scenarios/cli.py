@@ -67,6 +67,8 @@ def _cmd_run(args) -> int:
 
         if scenario.time_scale != "auto" or args.calibrate_from not in CANDIDATES:
             problem = f"--calibrate-from needs time_scale auto and one of {', '.join(map(str, CANDIDATES))}"
+    if args.recalibrate and scenario.time_scale != "auto":
+        problem = "--recalibrate needs time_scale auto (--time-scale auto or the scenario's time_scale: auto)"
     if problem:
         print(f"sdvisc: {problem}", file=sys.stderr)
         return 1
@@ -75,7 +77,8 @@ def _cmd_run(args) -> int:
     print(f"sdvisc: running {path} -> {out}/{scaled}")
     try:
         summary = run_scenario(scenario, out, cli=args.cli, quiet=args.quiet, source=str(path),
-                               cli_duration_s=args.cli_duration, web_port=args.web, calibrate_from=args.calibrate_from)
+                               cli_duration_s=args.cli_duration, web_port=args.web, calibrate_from=args.calibrate_from,
+                               recalibrate=args.recalibrate)
     except RunError as exc:
         print(f"sdvisc: {exc}", file=sys.stderr)
         return 2
@@ -124,16 +127,19 @@ def _print_result(summary: dict, out: Path) -> None:
     for name, code in summary.get("processes_exited_early", {}).items():
         print(f"sdvisc: warning: {name} exited early with code {code}; see {out}/{name}.log")
     cal = summary.get("time", {}).get("calibration")
-    if cal:
-        print(f"sdvisc: time scale {cal['time_scale']:g} chosen before t = 0"
-              + ("" if cal["met"] else " (the largest tried: the limits were not met, see summary.json time.calibration)"))
     for name, t in summary["turbines"].items():
         rtt = t.get("round_trip_samples")
         if rtt:
             print(f"  {name}: MEAS->CTRL round trip within one sample for {rtt['within_one']:.1%} of answers "
                   f"(median {rtt['median']} samples)")
-    if summary.get("advice"):
+    if cal and cal.get("next_run_k"):  # auto: the run did not hold; the cache already holds the next k
+        print(f"sdvisc: warning: {summary['advice'].split(': this machine')[0]} (calibrated, did not hold); "
+              f"the next run of this shape uses k = {cal['next_run_k']:g} (calibration cache {cal['cache_file']})")
+    elif summary.get("advice"):
         print(f"sdvisc: warning: {summary['advice']}")
+    elif cal:
+        print(f"sdvisc: time scale {cal['time_scale']:g} ({'from the cache' if cal['source'] == 'cache' else 'calibrated'}) "
+              "held: every turbine's answers within one sample for >= 99 % and under 1 % of the steps late")
     print(f"sdvisc: results in {out}/summary.json, events.jsonl, timeseries.csv")
 
 
@@ -186,6 +192,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--calibrate-from", type=float, default=None, metavar="K",
                    help="with auto: try K first (e.g. what an earlier run of the same shape chose), then smaller "
                         "ones while they hold, else larger: the same k found in fewer trials")
+    p.add_argument("--recalibrate", action="store_true",
+                   help="with auto: measure the time scale even if the calibration cache has this machine, code and "
+                        "network shape (the cache: scenarios/calibration_cache.py)")
     p.add_argument("--switch-ports", choices=SWITCH_PORT_TYPES, default=None,
                    help="the switch side of every link (overrides the scenario's switch_ports): system, or AF_XDP "
                         "(afxdp: a PMD thread spins one core, hops ~10x cheaper; falls back to system where refused)")

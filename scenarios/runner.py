@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from scenarios import configs, switch_links, switch_ports
-from scenarios.calibrate import Calibration, calibration_line
+from scenarios.calibration_cache import after_run, choose_time_scale
 from scenarios.feedback import progress_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
@@ -60,6 +60,7 @@ class Run:
         self.t0: float | None = None  # the run clock's reading at t = 0 (simulated seconds)
         self.auto_time_scale = scenario.time_scale == "auto"
         self.calibrate_from: float | None = None  # auto: the k to try first (scenarios.calibrate.search)
+        self.recalibrate = False  # auto: measure even when the calibration cache has this shape
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
         self.switch_ports: dict = {}  # scenarios.switch_ports.use: requested, used, refused
         self.cpu_split: dict = {"applied": False, "why": "off"}  # sdvisc.cpu_split.apply
@@ -146,11 +147,10 @@ class Run:
         phase("hosts_prepare")
         self.impairments.start(self)
         if self.auto_time_scale:  # measured before the SDN app starts (its config carries the clock)
-            self._say("sdvisc: time_scale auto: probing the plant, the SDC and the network at k = 1, 2, 4, …")
-            self.calibration = Calibration(self).measure()
+            self.calibration = choose_time_scale(self)  # the cache's k, else probed at k = 1, 2, 4, …
             self.set_time_scale(self.calibration["time_scale"])
             self.impairments.set_clock(self.clock_settings)
-            self._say(calibration_line(self.calibration))
+            self._say(self.calibration["line"])
             phase("calibration")
             self._start_sdn_apps(ports)
             reconnect_controllers(self.net.switches)  # now, not after Open vSwitch's back-off (up to 8 s)
@@ -356,7 +356,7 @@ class Run:
 
 def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, quiet: bool = False,
                  source: str | None = None, cli_duration_s: float | None = None, web_port: int | None = None,
-                 calibrate_from: float | None = None) -> dict:
+                 calibrate_from: float | None = None, recalibrate: bool = False) -> dict:
     """Run ``scenario``; returns the summary (also written to ``out_dir/summary.json``). With ``cli``, an
     interactive session (:mod:`scenarios.live`) that ends on ``exit`` or at ``cli_duration_s``;
     ``web_port``: its live view (:mod:`scenarios.web`)."""
@@ -374,7 +374,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
         cleanup.clean()
     previous = {s: signal.signal(s, _raise_interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
     run = Run(scenario, out, quiet=quiet)
-    run.calibrate_from = calibrate_from
+    run.calibrate_from, run.recalibrate = calibrate_from, recalibrate
     if cli:
         run.session = Session(run, cli_duration_s=cli_duration_s, web_port=web_port)
     completed = False
@@ -395,5 +395,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
             if run.session is not None:
                 run.session.settle_duration()  # summary.json covers the whole session
             summary = build_summary(run, completed=completed, source=source)
+            if run.calibration is not None and completed:  # the run checks the k it was given; the cache learns
+                summary["time"]["calibration"].update(after_run(run.calibration, summary.get("advice")))
             (out / "summary.json").write_text(json.dumps(summary, indent=1))
     return summary

@@ -15,13 +15,19 @@ their assertions hold on a busy machine; they assert simulated-time behaviour, n
 machine's real-time speed (that is measured in benchmarks/). A test's own --time-scale wins."""
 
 
+os.environ.setdefault("SDVISC_CALIBRATION_CACHE", "none")
+"""Every ``time_scale: auto`` run a test starts measures its own calibration (the cache off,
+scenarios/calibration_cache.py), so no test depends on what an earlier one left in a cache; a test of
+the cache itself names its own file."""
+
+
 def time_scale_args() -> list[str]:
     return ["--time-scale", TEST_TIME_SCALE]
 
 
-def sdvisc(*args: str, timeout: float = 300, **kw) -> subprocess.CompletedProcess:
+def sdvisc(*args: str, timeout: float = 300, env: dict | None = None, **kw) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "scenarios.cli", *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=timeout, env=dict(os.environ, PYTHONUNBUFFERED="1"), **kw)
+                          timeout=timeout, env=env or dict(os.environ, PYTHONUNBUFFERED="1"), **kw)
 
 
 def run_scenario(path: str | Path, out: Path, *extra: str, timeout: float = 300) -> dict:

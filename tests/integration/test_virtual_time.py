@@ -5,11 +5,14 @@ run took at least k times its simulated duration — never this machine's real-t
 
 from __future__ import annotations
 
+import json
+import os
+
 import numpy as np
 import pytest
 import yaml
 
-from tests.integration.helpers import ROOT, TEST_TIME_SCALE, assert_no_leftovers, run_scenario
+from tests.integration.helpers import ROOT, TEST_TIME_SCALE, assert_no_leftovers, run_scenario, sdvisc
 
 pytestmark = pytest.mark.network
 SC = ROOT / "scenarios"
@@ -77,4 +80,29 @@ def test_paper_f1_through_the_network_rides_through_the_fault_with_v_ref(tmp_pat
     for wt in ("wt1_1", "wt2_1", "wt3_1", "wt4_1"):
         assert (ts[f"{wt}mode"][fault] == 2).all(), f"{wt} left remote mode during the fault"
         assert ts[f"{wt}i"][fault].max() <= 1.6, f"{wt}: fault current not limited"
+    assert_no_leftovers()
+
+
+def test_the_calibration_cache_lets_the_second_run_of_a_shape_start_without_measuring(tmp_path):
+    cache = tmp_path / "calibration.json"
+    env = dict(os.environ, SDVISC_CALIBRATION_CACHE=str(cache), PYTHONUNBUFFERED="1")
+    runs = []
+    for n in (1, 2):
+        res = sdvisc("run", str(SC / "default.yaml"), "--out", str(tmp_path / f"run{n}"), env=env,
+                     timeout=300 * float(TEST_TIME_SCALE))
+        assert res.returncode == 0, res.stdout + res.stderr
+        runs.append((res.stdout, json.loads((tmp_path / f"run{n}" / "summary.json").read_text())))
+    (out1, first), (out2, second) = runs
+    cal1, cal2 = first["time"]["calibration"], second["time"]["calibration"]
+    assert cal1["source"] == "measured" and cal1["trials"] and "calibration" in first["time"]["setup_wall_s"]
+    assert cal2["source"] == "cache" and cal2["trials"] == [] and cal2["cache_key"] == cal1["cache_key"]
+    # the second run uses what the first measured, or twice that when the first said it did not hold
+    assert cal2["time_scale"] == (cal1["next_run_k"] or cal1["time_scale"]) == second["time"]["time_scale"]
+    assert "from the calibration cache" in out2 and "calibrated in" in out1
+    entry = json.loads(cache.read_text())[cal1["cache_key"]]
+    assert entry["time_scale"] == (cal2["next_run_k"] or cal2["time_scale"])
+    assert second["turbines"]["wt1_1"]["packets"]["ctrl_rx"] >= 0.97 * (second["duration_s"] - 1.0) / second["step_s"]
+    res = sdvisc("run", str(SC / "smoke.yaml"), "--out", str(tmp_path / "bad"), "--time-scale", "2", "--recalibrate",
+                 env=env)
+    assert res.returncode == 1 and "--recalibrate needs time_scale auto" in res.stderr
     assert_no_leftovers()
