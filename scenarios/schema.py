@@ -1,5 +1,11 @@
 """The scenario file schema (pydantic): topology, timing, plant/SDC/SDN settings and a timeline.
 
+The sections that configure a process (``plant``, ``sdc``, ``sdn``, ``owfcc``, ``links`` entries, the
+grid source) and the keys ``step_s``, ``duration_s``, ``time_scale`` are :mod:`sdvisc.config`'s option
+groups and types, subclassed here only to add what a scenario alone has (``sdc.backup``,
+``sdn.redundancy``, ``plant.batteries``, the full-model-only checks): each option's bounds, default
+and description are defined once, there.
+
 Unknown keys and non-finite numbers (NaN, inf) are rejected everywhere. The checks that need more
 than one section (timeline times within ``duration_s``, names in the topology, ``set`` parameters
 of the plant model) are made by :func:`scenarios.loader.load_scenario`, together with these.
@@ -17,11 +23,25 @@ from typing import Annotated, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
-from plant.params import BatteryParams, GridParams
-from sdvisc.config import GATHER_HELP, GRID_SCENARIO_KEYS
-from sdvisc.vocabulary import MAX_ONSHORE_UNITS, ONSHORE_CLUSTER
-
-TURBINE_PATTERN = r"^wt\d+_\d+$"
+from plant.params import BatteryParams
+from sdvisc.config import (
+    BatterySoc,
+    DelayMs,
+    GridSourceSettings,
+    LinkEnds,
+    LinkImpairmentOptions,
+    LossProbability,
+    OnshoreUnits,
+    OwfccOptions,
+    PlantOptions,
+    RunSeconds,
+    SdcOptions,
+    SdnOptions,
+    StepSeconds,
+    TimeScale,
+    TurbineName,
+)
+from sdvisc.vocabulary import ONSHORE_CLUSTER
 
 
 class Strict(BaseModel):
@@ -33,10 +53,7 @@ class TopologySpec(Strict):
     clusters: int = Field(5, ge=1, le=50)
     turbines: int = Field(2, ge=1, le=100, description="turbines per cluster")
     layout: Literal["compact", "tower"] | None = Field(None, description="farm only; default compact")
-    onshore_units: int = Field(0, ge=0, le=MAX_ONSHORE_UNITS, description=(
-        "farm with plant.model full only: the plant's aggregated onshore units (the paper's comparison "
-        "arrangement: one 40 MVA SDViSC at the onshore PCC, PlantParams.onshore_units), each a turbine host "
-        f"wt{ONSHORE_CLUSTER}_<k> on the substation switch sub1, plant converter 50 + k - 1; 0 = none"))
+    onshore_units: OnshoreUnits
 
     @model_validator(mode="after")
     def _layout_only_for_farm(self):
@@ -63,37 +80,12 @@ class TopologySpec(Strict):
         return p
 
 
-class GridSourceSpec(Strict):
-    """The grid source behind the PCC's Thevenin impedance (``plant.params.GridParams``; full model
-    only). Each key left out keeps the plant's default."""
-
-    h: float | None = Field(None, ge=0, le=30, description=(
-        f"inertia constant of the grid source on s_mva, s (GridParams.h_grid); 0 = an ideal source whose "
-        f"frequency never moves (default {GridParams.h_grid:g})"))
-    s_mva: float | None = Field(None, gt=0, le=1e6, description=(
-        f"rating of the grid source, MVA (GridParams.s_grid_mva; default {GridParams.s_grid_mva:g} = SCR x 500 MVA)"))
-    d: float | None = Field(None, ge=0, le=100, description=(
-        f"load damping of the grid source, p.u. power / p.u. speed on s_mva (default {GridParams.d_grid:g})"))
-    r_gov: float | None = Field(None, gt=0, le=1, description=(
-        f"governor droop, p.u. speed / p.u. power (default {GridParams.r_gov:g}); only with h > 0"))
-    t_gov_s: float | None = Field(None, gt=0, le=100, description=(
-        f"governor/turbine time constant, s (default {GridParams.t_gov:g})"))
-    e: float | None = Field(None, ge=0.8, le=1.2, description=(
-        f"magnitude of the grid source's EMF, p.u. (GridParams.e_grid, default {GridParams.e_grid:g}): e.g. the "
-        "paper's F8 starts from V_pcc = 0.97"))
-
-    def grid_params(self) -> dict[str, float]:
-        """The ``GridParams`` fields these keys set (only those given)."""
-        return {GRID_SCENARIO_KEYS[k]: v for k, v in self.model_dump().items() if v is not None}
-
-
 class BatterySpec(Strict):
     """Li-ion batteries on turbines' DC links from t = 0 (``plant/battery.py``, ``Plant.set_battery``;
     full model only): the paper's 2000 Ah battery of F5."""
 
-    turbines: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(
-        min_length=1, description="turbines whose DC link gets a battery")
-    soc_init: float | None = Field(None, ge=BatteryParams.soc_min, le=BatteryParams.soc_max, description=(
+    turbines: list[TurbineName] = Field(min_length=1, description="turbines whose DC link gets a battery")
+    soc_init: BatterySoc | None = Field(None, description=(
         f"initial state of charge, fraction {BatteryParams.soc_min:g}-{BatteryParams.soc_max:g} (default "
         f"{BatteryParams.soc_init:g}); the pack floats on the DC link at it (BatteryParams.soc_init)"))
 
@@ -106,54 +98,31 @@ class BatterySpec(Strict):
         return names
 
 
-class PlantSpec(Strict):
-    model: Literal["minimal", "full"] = Field("minimal", description="minimal: infinite bus; full: the 500 MW farm")
-    record: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] | None = Field(
-        None, description="turbines in timeseries.csv (default: those named in the timeline)")
-    record_every: int = Field(15, ge=1, description="record one sample every N steps")
-    ak_period_s: float = Field(0.01, gt=0, le=1.0, description="AK report period")
-    ak_window_s: float = Field(0.01, gt=0, le=1.0, description="AK = 1 if a CTRL arrived within this window")
-    remote_loss_fallback_s: float = Field(0.1, gt=0, description="remote mode falls back after this loss time")
-    remote_apply: Literal["i_ref", "v_ref"] = Field(
-        "i_ref", description="what a remote turbine applies: the SDC's current reference (local current loop) "
-                             "or its converter voltage reference (inner loop closed over the network)")
-    grid: GridSourceSpec | None = Field(None, description="the grid source's inertia and governor (full model)")
+class PlantSpec(PlantOptions):
+    """The ``plant`` section: :class:`sdvisc.config.PlantOptions` and the batteries (the plant
+    configuration's ``batteries`` and ``battery_soc_init``)."""
+
     batteries: BatterySpec | None = Field(None, description="batteries on turbines' DC links (full model)")
-    p_star: dict[Annotated[str, Field(pattern=TURBINE_PATTERN)], Annotated[float, Field(ge=0, le=1.1)]] | None = Field(
-        None, description="grid-following active-power reference P* of these turbines from t = 0, p.u. of the "
-                          "turbine rating (the steady state is computed for it; the others follow the MPPT curve: "
-                          "1 p.u. at 12 m/s); 0 for a turbine that will run as a ViSC (T_m = 0), full model")
 
     @field_validator("grid", "batteries", "p_star")
     @classmethod
     def _full_model_only(cls, value, info: ValidationInfo):
-        if value is not None and info.data.get("model", "minimal") != "full":
+        given = value.given() if isinstance(value, GridSourceSettings) else value
+        if given and info.data.get("model", "minimal") != "full":
             raise ValueError(f"{info.field_name} needs plant.model: full (the minimal model is an infinite bus)")
         return value
 
 
-class SdcSpec(Strict):
-    method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
-    dtype: Literal["float64", "float32"] = "float64"
+class SdcSpec(SdcOptions):
+    """The ``sdc`` section: :class:`sdvisc.config.SdcOptions` and whether a backup SDC runs."""
+
     backup: bool = Field(True, description="start the backup SDC on sdc2")
-    gather_steps: float = Field(0.5, ge=0, le=0.9, description=GATHER_HELP)
-    standby: Literal["latest", "track"] = Field(
-        "latest", description="backup warm state: track = step on every mirrored sample; latest = initialise at take-over")
 
 
-class SdnSpec(Strict):
-    dr_hold_s: float = Field(0.040, gt=0, le=1.0, description="hold before DR_i is confirmed")
-    ak_timeout_s: float = Field(0.030, gt=0, le=1.0, description="no AK for this long counts as AK = 0")
-    dynamic_routing: bool = Field(True, description="act on DR_i (reroute); false reproduces the no-DR case")
-    reroute_on_port_status: bool = Field(False, description="also reroute at once on port-status link down")
-    fast_failover: bool = Field(False, description="pre-install OpenFlow fast-failover groups with detours")
-    duplicate_paths: bool = Field(False, description="1+1 duplication: each packet also on a second, node-disjoint "
-                                  "leg; the receivers drop the copy (PRP-like, docs/sdn.md)")
+class SdnSpec(SdnOptions):
+    """The ``sdn`` section: :class:`sdvisc.config.SdnOptions` and whether a second SDN app runs."""
+
     redundancy: bool = Field(False, description="run a second SDN app instance as OpenFlow slave that takes over")
-    visc_disabled: list[Annotated[str, Field(pattern=TURBINE_PATTERN)]] = Field(default_factory=list)
-    failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
-    sdc_dead_s: float = Field(0.030, gt=0, le=1.0, description="an SDC is dead after this long without heartbeat")
-    mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
 
 
 class CaptureSpec(Strict):
@@ -161,23 +130,13 @@ class CaptureSpec(Strict):
     hosts: list[str] = Field(default_factory=lambda: ["sdc1"])
 
 
-class LinkRef(Strict):
-    a: str = Field(description="a switch at one end of a switch-to-switch link")
-    b: str = Field(description="the switch at the other end")
+class LinkRef(LinkEnds):
+    """A switch-to-switch link, by its two switches."""
 
 
-_DELAY = {"ge": 0, "le": 10_000}
-
-
-class LinkImpairmentSpec(LinkRef):
-    """Delay, jitter, loss and bandwidth of one switch-to-switch link, both directions
-    (docs/scenarios.md "Impairments"); any subset of the keys."""
-
-    delay_ms: float = Field(0.0, **_DELAY, description="one-way delay added in each direction (simulated ms)")
-    jitter_ms: float = Field(0.0, **_DELAY, description="uniform jitter: each frame delay ± jitter (never < 0)")
-    loss: float = Field(0.0, ge=0, le=1, description="probability that a frame is dropped")
-    bw_mbps: float | None = Field(None, gt=0, le=100_000, description="bandwidth (Mbit/s of simulated time)")
-    seed: int = Field(1, description="loss and jitter draws")
+class LinkImpairmentSpec(LinkRef, LinkImpairmentOptions):
+    """A ``links`` entry: :class:`sdvisc.config.LinkImpairmentOptions` of the link ``a``–``b``; any
+    subset of the keys."""
 
 
 class _Event(Strict):
@@ -186,18 +145,18 @@ class _Event(Strict):
 
 class ViscOn(_Event):
     do: Literal["visc_on"]
-    wt: str = Field(pattern=TURBINE_PATTERN)
+    wt: TurbineName
     params: dict[Literal["h", "d", "m_q", "v_ref", "q_ref", "supp"], float] = Field(default_factory=dict)
 
 
 class ViscOff(_Event):
     do: Literal["visc_off"]
-    wt: str = Field(pattern=TURBINE_PATTERN)
+    wt: TurbineName
 
 
 class SetViscParams(_Event):
     do: Literal["set_params"]
-    wt: str = Field(pattern=TURBINE_PATTERN)
+    wt: TurbineName
     params: dict[Literal["h", "d", "m_q", "v_ref", "q_ref", "supp"], float]
 
 
@@ -218,7 +177,7 @@ class PathLinkDown(_Event):
     (as the SDN app reports it; counted from the SDC side, modulo the number of such links)."""
 
     do: Literal["path_link_down"]
-    wt: str = Field(pattern=TURBINE_PATTERN)
+    wt: TurbineName
     hop: int = Field(0, ge=0)
 
 
@@ -255,7 +214,7 @@ class SpoofAk(_Event):
 
     do: Literal["spoof_ak"]
     host: str
-    victim: str = Field(pattern=TURBINE_PATTERN)
+    victim: TurbineName
     ak: Literal[0, 1] = 0
     impersonate: bool = False
     count: int = Field(100, ge=1, le=100_000)
@@ -269,9 +228,9 @@ class Impair(_Event):
     do: Literal["impair"]
     a: str
     b: str
-    delay_ms: float | None = Field(None, **_DELAY)
-    jitter_ms: float | None = Field(None, **_DELAY)
-    loss: float | None = Field(None, ge=0, le=1)
+    delay_ms: DelayMs | None = None
+    jitter_ms: DelayMs | None = None
+    loss: LossProbability | None = None
     bw_mbps: float | None = Field(None, ge=0, le=100_000)
 
     @model_validator(mode="after")
@@ -338,10 +297,9 @@ class Scenario(Strict):
     name: str
     description: str = ""
     topology: TopologySpec = Field(default_factory=TopologySpec)
-    duration_s: float | None = Field(gt=0, le=3600, description="simulated seconds; null: open-ended (only with "
-                                     "sdvisc run --cli, which ends the session)")
-    step_s: float = Field(0.67e-3, gt=0, le=0.1, description="plant/SDC sampling period Ts")
-    time_scale: Annotated[float, Field(ge=1.0, le=1000.0)] | Literal["auto"] = Field(
+    duration_s: RunSeconds
+    step_s: StepSeconds
+    time_scale: TimeScale | Literal["auto"] = Field(
         1.0, description="wall seconds per simulated second (virtual time: every component k times slower, the "
                          "network k times faster); 1 = real time; auto = measured before t = 0 (scenarios.calibrate)")
     switch_ports: Literal["system", "afxdp", "afxdp-nonpmd"] = Field(
@@ -356,6 +314,7 @@ class Scenario(Strict):
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)
+    owfcc: OwfccOptions = Field(default_factory=OwfccOptions)
     capture: CaptureSpec = Field(default_factory=CaptureSpec)
     links: list[LinkImpairmentSpec] = Field(default_factory=list, description="impaired links from t = 0")
     impairable: Literal["listed", "all"] | list[LinkRef] = Field(

@@ -6,13 +6,20 @@ Both ends validate against the same model here: an unknown key, a missing one, a
 value out of range is a :class:`ConfigError` naming the file, the key and what was expected — at
 the runner before a process starts, and again at the process. Defaults live here and nowhere
 else (no ``cfg.get(key, default)`` in the services).
+
+Every option a scenario can set is defined once, here (bounds, default, description): in an option
+group (:class:`SdnOptions`, :class:`SdcOptions`, :class:`PlantOptions`, :class:`OwfccOptions`,
+:class:`GridSourceSettings`, :class:`LinkImpairmentOptions`) or, for a single key, an annotated type
+(:data:`StepSeconds`, :data:`RunSeconds`, :data:`TimeScale`, :data:`OnshoreUnits`, ...). The process
+configurations include them; the scenario's sections (scenarios/schema.py) subclass the groups,
+adding only the keys a scenario alone has, and scenarios/configs.py passes them over whole.
 """
 
 from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Literal, TypeVar
+from typing import Annotated, Literal, TypeVar
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -23,6 +30,34 @@ CONTROLLER_VIP = "10.0.0.254"
 """The SDN application's virtual IP address (packets to it reach the controller as packet-ins)."""
 CONTROLLER_VMAC = "02:00:00:00:00:fe"
 """The SDN application's virtual MAC address."""
+
+TurbineName = Annotated[str, Field(pattern=TURBINE_PATTERN)]
+"""A turbine host's name, ``wt<cluster>_<number>`` (:data:`sdvisc.vocabulary.TURBINE_PATTERN`)."""
+TimeScale = Annotated[float, Field(ge=1.0, le=1000.0)]
+"""Wall seconds per simulated second (k); a scenario may also say ``auto``."""
+StepSeconds = Annotated[float, Field(0.67e-3, gt=0, le=0.1, description="plant/SDC sampling period Ts, s")]
+"""The sampling period (a scenario's ``step_s``, every paced process's)."""
+RunSeconds = Annotated[float | None, Field(gt=0, le=3600, description=(
+    "simulated seconds to run; null: open-ended, until a stop command (a scenario: only with sdvisc run --cli, "
+    "which ends the session)"))]
+"""How long a run lasts (a scenario's ``duration_s``, the plant's)."""
+OnshoreUnits = Annotated[int, Field(0, ge=0, le=MAX_ONSHORE_UNITS, description=(
+    "full model on the farm topology: the plant's aggregated onshore units (the paper's comparison arrangement: one "
+    "40 MVA SDViSC at the onshore PCC, PlantParams.onshore_units), appended after the farm's turbines; host wt6_<k> "
+    "(sdvisc.vocabulary.ONSHORE_CLUSTER) on the substation switch sub1 is converter n_farm + k - 1; 0 = none"))]
+"""A scenario's ``topology.onshore_units``, the plant's."""
+FallbackSeconds = Annotated[float, Field(0.1, gt=0, description=(
+    "a remote turbine without control packets for this long falls back to its own control (grid following), s"))]
+"""A scenario's ``plant.remote_loss_fallback_s``: the plant applies it, the SDN app expects it."""
+BATTERY_SOC_LIMITS = (0.1, 0.9)
+"""A battery's initial state of charge lies within ``plant.params.BatteryParams`` soc_min, soc_max
+(sdvisc does not import the plant; tests/unit/test_one_config_source.py checks that they agree)."""
+BatterySoc = Annotated[float, Field(ge=BATTERY_SOC_LIMITS[0], le=BATTERY_SOC_LIMITS[1])]
+"""A battery's initial state of charge, fraction."""
+DelayMs = Annotated[float, Field(ge=0, le=10_000)]
+"""A link's added one-way delay or jitter, simulated ms."""
+LossProbability = Annotated[float, Field(ge=0, le=1)]
+"""The probability that a link drops a frame."""
 
 
 class ConfigError(ValueError):
@@ -36,50 +71,64 @@ class _Config(BaseModel):
 class ClockSettings(_Config):
     """The run's one clock (:mod:`sdvisc.clock`): every process of a run gets the same two numbers."""
 
-    time_scale: float = Field(1.0, ge=1.0, le=1000.0, description="wall seconds per simulated second (k)")
+    time_scale: TimeScale = Field(1.0, description="wall seconds per simulated second (k)")
     clock_epoch: float = Field(0.0, ge=0.0, description="wall time at which the virtual clock equals the wall clock")
 
     def clock(self) -> Clock:
         return Clock(self.time_scale, self.clock_epoch)
 
 
-class ProcessBase(ClockSettings):
-    """What every network process of the testbed needs."""
+class ControllerAddress(_Config):
+    """How a process reaches the SDN application (fixed by the testbed, not a scenario option)."""
 
     controller_vip: str = Field(CONTROLLER_VIP, description="the SDN app's virtual IP address")
     header: bool = Field(True, description="GTNET packets carry the VILLASnode 3-word header")
+
+
+class OutputDir(_Config):
     out_dir: str = Field(description="where the process writes its ready file, statistics and events")
 
 
-class ServiceBase(ProcessBase):
-    """A process that runs at the sampling period."""
-
-    step_s: float = Field(gt=0, le=0.1, description="sampling period Ts, s")
+class RealtimePriority(_Config):
     realtime_priority: bool = Field(True, description="run at SCHED_FIFO where allowed")
 
 
-GATHER_HELP = ("after a wake-up, wait up to this many sampling periods (simulated) for the other served "
-               "turbines' MEAS, so one round answers them all; 0: every wake-up is a round")
+class ProcessBase(ClockSettings, ControllerAddress, OutputDir):
+    """What every network process of the testbed needs."""
 
 
-class SdcConfig(ServiceBase):
+class ServiceBase(ProcessBase, RealtimePriority):
+    """A process that runs at the sampling period."""
+
+    step_s: StepSeconds
+
+
+class SdcOptions(_Config):
+    """The SDC unit's options a scenario sets (its ``sdc`` section)."""
+
+    method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = Field(
+        "tustin", description="discretisation of the ViSC law (hold: network only, no law)")
+    dtype: Literal["float64", "float32"] = Field("float64", description="the law's floating-point type")
+    gather_steps: float = Field(0.5, ge=0, le=0.9, description=(
+        "after a wake-up, wait up to this many sampling periods (simulated) for the other served "
+        "turbines' MEAS, so one round answers them all; 0: every wake-up is a round"))
+    standby: Literal["latest", "track"] = Field(
+        "latest", description="backup warm state: track = step on every mirrored sample; latest = initialise at take-over")
+
+
+class SdcConfig(ServiceBase, SdcOptions):
     """``python -m sdc_unit.service``."""
 
     sdc_id: int = Field(1, ge=1, le=255)
     role: Literal["primary", "backup"] = "primary"
-    standby: Literal["latest", "track"] = Field(
-        "latest", description="backup warm state: track = step on every mirrored sample; latest = initialise at take-over")
     bind_ip: str = "0.0.0.0"
     capacity: int = Field(64, ge=1, le=4096, description="turbines one SDC can serve")
-    method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = "tustin"
-    dtype: Literal["float64", "float32"] = "float64"
-    gather_steps: float = Field(0.5, ge=0, le=0.9, description=GATHER_HELP)
 
 
 class TurbineEndpoint(_Config):
     """One turbine's network endpoint in the plant process."""
 
-    name: str = Field(pattern=TURBINE_PATTERN)
+    name: TurbineName
     wid: int = Field(ge=101)
     ip: str
     pid: int | None = Field(None, description="a process in the turbine's network namespace (None: this one)")
@@ -87,35 +136,54 @@ class TurbineEndpoint(_Config):
 
 GRID_SCENARIO_KEYS = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov",
                       "e": "e_grid"}
-"""A scenario's ``plant.grid`` keys -> the fields of :class:`GridSourceSettings` (``GridParams``)."""
+"""The keys of :class:`GridSourceSettings` (a scenario's ``plant.grid``) -> ``plant.params.GridParams`` fields."""
 
 
 class GridSourceSettings(_Config):
-    """The full model's grid source (``plant.params.GridParams`` fields; None: the plant's default)."""
+    """The grid source behind the PCC's Thevenin impedance (``plant.params.GridParams``; full model
+    only). Each key left out (None) keeps the plant's default."""
 
-    h_grid: float | None = Field(None, ge=0, le=30, description="grid source inertia on s_grid_mva, s (0: ideal)")
-    s_grid_mva: float | None = Field(None, gt=0, le=1e6, description="grid source rating, MVA")
-    d_grid: float | None = Field(None, ge=0, le=100, description="load damping, p.u. power / p.u. speed")
-    r_gov: float | None = Field(None, gt=0, le=1, description="governor droop, p.u. speed / p.u. power")
-    t_gov: float | None = Field(None, gt=0, le=100, description="governor time constant, s")
-    e_grid: float | None = Field(None, ge=0.8, le=1.2, description="grid source EMF magnitude, p.u.")
+    h: float | None = Field(None, ge=0, le=30, description=(
+        "inertia constant of the grid source on s_mva, s (GridParams.h_grid); 0 = an ideal source whose "
+        "frequency never moves"))
+    s_mva: float | None = Field(None, gt=0, le=1e6, description="rating of the grid source, MVA (GridParams.s_grid_mva)")
+    d: float | None = Field(None, ge=0, le=100, description=(
+        "load damping of the grid source, p.u. power / p.u. speed on s_mva (GridParams.d_grid)"))
+    r_gov: float | None = Field(None, gt=0, le=1, description="governor droop, p.u. speed / p.u. power; only with h > 0")
+    t_gov_s: float | None = Field(None, gt=0, le=100, description="governor/turbine time constant, s (GridParams.t_gov)")
+    e: float | None = Field(None, ge=0.8, le=1.2, description=(
+        "magnitude of the grid source's EMF, p.u. (GridParams.e_grid): e.g. the paper's F8 starts from V_pcc = 0.97"))
 
     def given(self) -> dict[str, float]:
-        return {k: v for k, v in self.model_dump().items() if v is not None}
+        """The ``GridParams`` fields these keys set (only those given)."""
+        return {GRID_SCENARIO_KEYS[k]: v for k, v in self.model_dump().items() if v is not None}
 
 
-class PlantConfig(ServiceBase):
+class PlantOptions(_Config):
+    """The plant's options a scenario sets (its ``plant`` section)."""
+
+    model: Literal["minimal", "full"] = Field("minimal", description="minimal: infinite bus; full: the 500 MW farm")
+    record: list[TurbineName] = Field(default_factory=list, description=(
+        "turbines whose signals go to timeseries.csv (a scenario's empty list: those its timeline names)"))
+    record_every: int = Field(15, ge=1, description="record one sample every N steps")
+    ak_period_s: float = Field(0.01, gt=0, le=1.0, description="AK report period, s")
+    ak_window_s: float = Field(0.01, gt=0, le=1.0, description="AK = 1 if a CTRL arrived within this window, s")
+    remote_loss_fallback_s: FallbackSeconds
+    remote_apply: Literal["i_ref", "v_ref"] = Field(
+        "i_ref", description="what a remote turbine applies: the SDC's current reference (local current loop) "
+                             "or its converter voltage reference (inner loop closed over the network)")
+    grid: GridSourceSettings = Field(default_factory=GridSourceSettings, description="full model: the grid source")
+    p_star: dict[TurbineName, Annotated[float, Field(ge=0, le=1.1)]] = Field(default_factory=dict, description=(
+        "full model: grid-following active-power reference P* of these turbines from t = 0, p.u. of the turbine "
+        "rating (the steady state is computed for it; the others follow the MPPT curve: 1 p.u. at 12 m/s); 0 for "
+        "a turbine that will run as a ViSC (T_m = 0)"))
+
+
+class PlantConfig(ServiceBase, PlantOptions):
     """``python -m plant.service``."""
 
-    duration_s: float | None = Field(gt=0, description="simulated seconds to run; None: until a stop command")
+    duration_s: RunSeconds
     turbines: list[TurbineEndpoint]
-    model: Literal["minimal", "full"] = "minimal"
-    record: list[str] = Field(default_factory=list, description="turbines whose signals go to timeseries.csv")
-    record_every: int = Field(15, ge=1)
-    ak_period_s: float = Field(0.01, gt=0, le=1.0)
-    ak_window_s: float = Field(0.01, gt=0, le=1.0)
-    remote_loss_fallback_s: float = Field(0.1, gt=0)
-    remote_apply: Literal["i_ref", "v_ref"] = "i_ref"
     report_loss_after_s: float | None = Field(None, gt=0, description="send an AK at once when a loss lasts this long")
     check_rx_source: bool = Field(True, description="accept CTRL only from the SDC, REQUEST only from the SDN app")
     stdin_commands: bool = Field(True, description="read timeline commands (JSON lines) on stdin")
@@ -125,22 +193,21 @@ class PlantConfig(ServiceBase):
         "services need to see plant_ready.json, the same at every time scale)"))
     prepare_scr: list[float] = Field(default_factory=list, description=(
         "SCR values the timeline will set: the full model factorises those network states before t = 0"))
-    grid: GridSourceSettings = Field(default_factory=GridSourceSettings, description="full model: the grid source")
-    batteries: list[str] = Field(default_factory=list, description="full model: turbines with a battery on the "
-                                 "DC link from t = 0 (plant/battery.py)")
-    battery_soc_init: float | None = Field(None, ge=0, le=1, description="their initial SOC (None: BatteryParams)")
-    p_star: dict[str, float] = Field(default_factory=dict, description="full model: grid-following P* (turbine "
-                                     "p.u.) of these turbines from t = 0, the steady state computed for it")
-    onshore_units: int = Field(0, ge=0, le=MAX_ONSHORE_UNITS, description=(
-        "full model: the aggregated onshore units appended after the farm's turbines (PlantParams.onshore_units); "
-        "host wt6_<k> is converter n_farm + k - 1 (sdvisc.vocabulary.ONSHORE_CLUSTER)"))
+    batteries: list[TurbineName] = Field(default_factory=list, description=(
+        "full model: turbines with a battery on the DC link from t = 0 (plant/battery.py)"))
+    battery_soc_init: BatterySoc | None = Field(None, description="their initial SOC (None: BatteryParams.soc_init)")
+    onshore_units: OnshoreUnits
 
 
-class OwfccConfig(ProcessBase):
+class OwfccOptions(_Config):
+    """The OWFCC's options a scenario sets (its ``owfcc`` section)."""
+
+    retry_s: float = Field(0.5, gt=0, description="resend an unanswered request after this long, s")
+    max_tries: int = Field(4, ge=1, description="send a request at most this many times")
+
+
+class OwfccConfig(ProcessBase, OwfccOptions):
     """``python -m sdvisc.owfcc``."""
-
-    retry_s: float = Field(0.5, gt=0, description="resend an unanswered request after this long")
-    max_tries: int = Field(4, ge=1)
 
 
 class SwitchInfo(_Config):
@@ -174,48 +241,61 @@ class TopologyInfo(_Config):
     links: list[LinkInfo]
 
 
-class AppConfig(ClockSettings):
+class SdnOptions(_Config):
+    """The SDN application's options a scenario sets (its ``sdn`` section)."""
+
+    visc_disabled: list[TurbineName] = Field(default_factory=list, description=(
+        "turbines whose ViSC is not enabled (T2 x/0)"))
+    dr_hold_s: float = Field(0.040, gt=0, le=1.0, description="hold before DR_i is confirmed, s (paper: 40 ms)")
+    ak_timeout_s: float = Field(0.030, gt=0, le=1.0, description="no AK for this long counts as AK = 0, s")
+    dynamic_routing: bool = Field(True, description=(
+        "act on DR_i by rerouting (false: detect and log only, the paper's case without DR)"))
+    fast_failover: bool = Field(False, description="pre-install OpenFlow fast-failover groups with detours "
+                                "(data-plane repair)")
+    reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
+    duplicate_paths: bool = Field(False, description=(
+        "1+1: every packet also on a second, node-disjoint leg between the path's first and last OpenFlow switch; "
+        "the receivers drop the copy (PRP-like, sdn_app.duplication, docs/sdn.md)"))
+    failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
+    sdc_dead_s: float = Field(0.030, gt=0, le=1.0, description="an SDC is dead after this long without a heartbeat, s")
+    mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
+
+
+class AppConfig(ClockSettings, ControllerAddress, SdnOptions):
     """``python -m sdn_app``: what the SDN application needs to know at start."""
 
     topology: TopologyInfo
-    controller_vip: str = CONTROLLER_VIP
     controller_vmac: str = CONTROLLER_VMAC
     owfcc: str = "owfcc"
     primary_sdc: str = "sdc1"
     backup_sdc: str | None = "sdc2"
-    visc_disabled: list[str] = Field(default_factory=list, description="turbines whose ViSC is not enabled (T2 x/0)")
-    dr_hold_s: float = Field(0.040, gt=0, description="hold before DR_i is confirmed, s (paper: 40 ms)")
-    ak_timeout_s: float = Field(0.030, gt=0, description="no AK for this long counts as AK = 0, s")
-    dynamic_routing: bool = Field(True, description="act on DR_i by rerouting (false: detect and log only)")
-    fast_failover: bool = Field(False, description="pre-install fast-failover groups with detours (data-plane repair)")
-    reroute_on_port_status: bool = Field(False, description="also reroute at once on a port-status link-down")
-    duplicate_paths: bool = Field(False, description="1+1: every packet also on a second, node-disjoint leg "
-                                  "between the path's first and last OpenFlow switch (sdn_app.duplication)")
-    failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
-    sdc_dead_s: float = Field(0.030, gt=0, description="an SDC is dead after this long without a heartbeat, s")
-    mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
-    turbine_fallback_s: float = Field(0.1, gt=0, description="a remote turbine without control packets for this "
-                                      "long falls back to its own control (plant.remote_loss_fallback_s)")
+    turbine_fallback_s: FallbackSeconds
     state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
-    header: bool = Field(True, description="GTNET packets carry the VILLAS 3-word header")
 
 
-class ImpairNodeConfig(ClockSettings):
+class LinkEnds(_Config):
+    a: str = Field(description="a switch at one end of a switch-to-switch link")
+    b: str = Field(description="the switch at the other end")
+
+
+class LinkImpairmentOptions(_Config):
+    """Delay, jitter, loss and bandwidth of one switch-to-switch link, both directions (a scenario's
+    ``links`` entries; docs/scenarios.md "Impairments")."""
+
+    delay_ms: DelayMs = Field(0.0, description="one-way delay added in each direction (simulated ms)")
+    jitter_ms: DelayMs = Field(0.0, description="uniform jitter: each frame delay ± jitter (never < 0)")
+    loss: LossProbability = Field(0.0, description="probability that a frame is dropped")
+    bw_mbps: float | None = Field(None, gt=0, le=100_000, description="bandwidth (Mbit/s of simulated time)")
+    seed: int = Field(1, description="loss and jitter draws (numpy generator)")
+
+
+class ImpairNodeConfig(ClockSettings, OutputDir, RealtimePriority, LinkEnds, LinkImpairmentOptions):
     """``python -m sdvisc.impair_node``: an impairment element forwarding frames between its two
     interfaces (one toward switch ``a``, one toward ``b``) through a timed queue."""
 
     name: str = Field(description="the element's host name")
-    a: str
-    b: str
     intf_a: str = Field(description="the element's interface toward a")
     intf_b: str = Field(description="the element's interface toward b")
-    out_dir: str
-    delay_ms: float = Field(0.0, ge=0, le=10_000)
-    jitter_ms: float = Field(0.0, ge=0, le=10_000)
-    loss: float = Field(0.0, ge=0, le=1)
-    bw_mbps: float | None = Field(None, gt=0, le=100_000)
-    seed: int = Field(1, description="loss and jitter draws (numpy generator)")
-    realtime_priority: bool = Field(True, description="run at SCHED_FIFO where allowed")
     spin_us: float = Field(0.0, ge=0, le=1000, description="busy-wait this long before a release instead of sleeping")
     status_period_s: float = Field(0.5, gt=0, description="wall seconds between status file writes")
 

@@ -53,7 +53,7 @@ def test_f8net_variant_sets_the_grid_emf_the_plant_reads(tmp_path):
         "plant": lambda plant: {**plant, "grid": {**(plant.get("grid") or {}), "e": 0.97952},
                                 "p_star": {"wt3_1": 0.0}}})
     sc = load_scenario(path)
-    assert sc.plant.grid.grid_params() == {"e_grid": 0.97952} and sc.plant.p_star == {"wt3_1": 0.0}
+    assert sc.plant.grid.given() == {"e_grid": 0.97952} and sc.plant.p_star == {"wt3_1": 0.0}
 
 
 def test_quick_without_only_runs_two_network_experiments_and_says_why_not_the_others(tmp_path):

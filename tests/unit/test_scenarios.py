@@ -48,6 +48,8 @@ BASE = "name: t\nduration_s: 3\ntopology: {name: paper, clusters: 1, turbines: 2
         ("sdn: {visc_disabled: [wt9_9]}\n", 4, "sdn.visc_disabled.0", "not in topology"),
         ("step_s: -1\n", 4, "step_s", "greater than 0"),
         ("sdc: {method: magic}\n", 4, "sdc.method", "tustin"),
+        ("sdn:\n  dr_hold_s: 2\n", 5, "sdn.dr_hold_s", "less than or equal to 1"),  # SdnOptions' bound
+        ("owfcc: {retry_s: 0}\n", 4, "owfcc.retry_s", "greater than 0"),
     ],
 )
 def test_bad_scenario_names_line_key_and_expectation(tmp_path, body, line, key, expect):
@@ -204,7 +206,7 @@ def test_grid_battery_p_star_and_delta_keys(tmp_path):
         "timeline:\n"
         "  - {t: 1, do: set, param: avr_ref, delta: 0.04}\n"
         "  - {t: 2, do: set, param: grid_emf, value: 0.92}\n")))
-    assert sc.plant.grid.grid_params() == {"h_grid": 5.0, "s_grid_mva": 1000.0, "t_gov": 4.0}
+    assert sc.plant.grid.given() == {"h_grid": 5.0, "s_grid_mva": 1000.0, "t_gov": 4.0}
     assert sc.plant.batteries.turbines == ["wt1_1", "wt1_2"] and sc.plant.batteries.soc_init == 0.6
     assert sc.plant.p_star == {"wt1_1": 0.0}
     assert (sc.timeline[0].delta, sc.timeline[0].value) == (0.04, None)
