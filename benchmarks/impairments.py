@@ -33,7 +33,7 @@ from pathlib import Path
 import yaml
 from scenario_runs import ROOT, machine, run_dict  # benchmarks/scenario_runs.py
 
-from sdvisc.impairment import binomial_interval
+from impairment.queue import binomial_interval
 
 
 def scenario(name: str, duration_s: float, links: list[dict], time_scale: float) -> dict:

@@ -42,9 +42,9 @@ from mininet.link import Link, OVSLink  # noqa: E402
 from mininet.net import Mininet  # noqa: E402
 
 from benchmarks.ovs_latency import ofctl, ovs_cpu_s  # noqa: E402
+from host_tools import cleanup  # noqa: E402
 from scenarios import switch_ports  # noqa: E402
 from scenarios.switch_ports import SWITCH_PORT_TYPES as PORT_TYPES  # noqa: E402
-from sdvisc import cleanup  # noqa: E402
 from topologies.base import TestbedSwitch, default_datapath  # noqa: E402
 
 ECHO = """

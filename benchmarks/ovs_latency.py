@@ -49,10 +49,10 @@ import numpy as np  # noqa: E402
 from mininet.link import Link, OVSLink  # noqa: E402
 from mininet.net import Mininet  # noqa: E402
 
+from host_tools import cleanup  # noqa: E402
 from scenarios import switch_ports  # noqa: E402
 from scenarios.switch_links import set_patch_link  # noqa: E402
 from scenarios.switch_ports import SWITCH_PORT_TYPES  # noqa: E402
-from sdvisc import cleanup  # noqa: E402
 from sdvisc.netns import set_link_up  # noqa: E402
 from topologies import topos  # noqa: E402
 from topologies.base import TestbedSwitch, default_datapath  # noqa: E402

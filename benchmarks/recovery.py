@@ -208,7 +208,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default="veth",
                         help="switch-to-switch links in the runs and the topology floor (scenarios/switch_links.py)")
     parser.add_argument("--cpu-split", choices=("on", "off"), default="off",
-                        help="on: Open vSwitch on a CPU of its own in the runs (sdvisc/cpu_split.py)")
+                        help="on: Open vSwitch on a CPU of its own in the runs (host_tools/cpu_split.py)")
     parser.add_argument("--out", help="keep the runs' results here (default: a temporary directory)")
     parser.add_argument("--all-links", action="store_true",
                         help="only the sweep: every single-link failure of paper, farm compact and farm tower, "

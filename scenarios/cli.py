@@ -144,14 +144,14 @@ def _print_result(summary: dict, out: Path) -> None:
 
 
 def _cmd_clean(args) -> int:
-    from sdvisc.cleanup import clean
+    from host_tools.cleanup import clean
 
     clean(verbose=True)
     return 0
 
 
 def _cmd_pcap(args) -> int:
-    from sdvisc.pcap import main as pcap_main
+    from host_tools.pcap import main as pcap_main
 
     return pcap_main(args.rest)
 

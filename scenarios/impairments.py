@@ -5,7 +5,7 @@ from the timeline and the CLI, link failures through an element, and ``summary.j
 namespace), a link's impairment is a netem qdisc on both switch ports of the link (delay and
 jitter scaled by the time scale k, rate divided by k). Where it does not (these machines), each
 impairable link gets an *impairment element*: a Mininet host ``imp<n>`` wired between the two
-switches (topologies.base.TestbedTopo) running :mod:`sdvisc.impair_node`. ``SDVISC_IMPAIR=netem``
+switches (topologies.base.TestbedTopo) running :mod:`impairment.element`. ``SDVISC_IMPAIR=netem``
 or ``element`` overrides the detection.
 
 **Which links.** Those in the scenario's ``links``, those named by an ``impair`` action, and, with
@@ -23,11 +23,11 @@ import subprocess
 import sys
 from pathlib import Path
 
+from impairment.element import status_path
+from impairment.queue import KEYS, Impairment
 from scenarios.processes import RunError
 from scenarios.schema import Scenario
 from sdvisc.config import ImpairNodeConfig, write_config
-from sdvisc.impair_node import status_path
-from sdvisc.impairment import KEYS, Impairment
 from topologies.base import describe
 
 ENV = "SDVISC_IMPAIR"
@@ -178,7 +178,7 @@ class Impairments:
         cfg = ImpairNodeConfig(**run.clock_settings, name=name, a=link["a"], b=link["b"], intf_a=f"{name}-eth0",
                                intf_b=f"{name}-eth1", out_dir=str(self.out), seed=self.seeds.get(pair, 1), **imp.as_dict())
         path = write_config(cfg, self.out / f"impair_{name}_config.json")
-        run.processes.start(f"{name}.impair", [sys.executable, "-m", "sdvisc.impair_node", "--config", str(path)],
+        run.processes.start(f"{name}.impair", [sys.executable, "-m", "impairment.element", "--config", str(path)],
                             host=run.net.get(name), stdin=subprocess.PIPE)
 
     def set_clock(self, clock_settings: dict) -> None:

@@ -18,6 +18,7 @@ import threading
 import time
 from pathlib import Path
 
+from host_tools import cleanup, cpu_split
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibration_cache import after_run, choose_time_scale
 from scenarios.feedback import progress_line
@@ -28,7 +29,6 @@ from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from scenarios.timeline import Timeline
-from sdvisc import cleanup, cpu_split
 from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
 from sdvisc.netns import set_link_up
@@ -63,7 +63,7 @@ class Run:
         self.recalibrate = False  # auto: measure even when the calibration cache has this shape
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
         self.switch_ports: dict = {}  # scenarios.switch_ports.use: requested, used, refused
-        self.cpu_split: dict = {"applied": False, "why": "off"}  # sdvisc.cpu_split.apply
+        self.cpu_split: dict = {"applied": False, "why": "off"}  # host_tools.cpu_split.apply
         self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
         self.teardown_wall_s: dict[str, float] = {}  # … and per teardown phase (each process's stop, mininet)
         self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
@@ -229,7 +229,7 @@ class Run:
             self.processes.start(f"{host}.sdc", [self.python, "-m", "sdc_unit.service", "--config", str(cfg)],
                         host=self.net.get(host))
         cfg = write_config(configs.owfcc_config(sc, out, self.clock_settings), self.out / "owfcc_config.json")
-        self.processes.start("owfcc.owfcc", [self.python, "-m", "sdvisc.owfcc", "--config", str(cfg)],
+        self.processes.start("owfcc.owfcc", [self.python, "-m", "owfcc.service", "--config", str(cfg)],
                     host=self.net.get("owfcc"), stdin=subprocess.PIPE)
         if sc.capture.pcap:
             for h in sc.capture.hosts:
@@ -350,7 +350,7 @@ class Run:
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
             phase("mininet_stop")
-            cleanup.clean()  # also undoes the CPU split (sdvisc.cpu_split.restore)
+            cleanup.clean()  # also undoes the CPU split (host_tools.cpu_split.restore)
             phase("cleanup")
 
 

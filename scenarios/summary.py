@@ -325,7 +325,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "impairments": impairments_section(run),
         "switch_ports": getattr(run, "switch_ports", None) or None,  # scenarios.switch_ports.use
         "switch_links": run.scenario.switch_links,  # scenarios.switch_links
-        "cpu_split": getattr(run, "cpu_split", None),  # sdvisc.cpu_split.apply
+        "cpu_split": getattr(run, "cpu_split", None),  # host_tools.cpu_split.apply
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
     }

@@ -90,7 +90,7 @@ class Timeline:
         return record
 
     def start_fuzzer(self, event, number: int) -> str:
-        """Start :mod:`sdvisc.fuzz` in ``event.host``'s namespace: hostile datagrams at
+        """Start :mod:`host_tools.fuzz` in ``event.host``'s namespace: hostile datagrams at
         ``event.targets`` (``fuzz``) or AKs for another turbine (``spoof_ak``)."""
         run = self.run
         hosts = run.desc["hosts"]
@@ -115,6 +115,6 @@ class Timeline:
                        wid=wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101)
         path = run.out / f"{name}_config.json"
         path.write_text(json.dumps(cfg, indent=1))
-        run.processes.start(f"{name}.fuzz", [sys.executable, "-m", "sdvisc.fuzz", "--config", str(path)],
+        run.processes.start(f"{name}.fuzz", [sys.executable, "-m", "host_tools.fuzz", "--config", str(path)],
                             host=run.net.get(event.host))
         return f"{name}.json"

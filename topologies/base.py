@@ -83,7 +83,7 @@ class CheckedController(RemoteController):
 
 
 class ImpairmentHost(Host):
-    """The host of an impairment element (:mod:`sdvisc.impair_node`): no IP address, no IPv6 and
+    """The host of an impairment element (:mod:`impairment.element`): no IP address, no IPv6 and
     no ARP entries of its own, so that it never sends a frame of its own into the link."""
 
     def startShell(self, *args, **kwargs):

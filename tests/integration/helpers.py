@@ -51,7 +51,7 @@ def assert_decisions_in_order(events_file: Path) -> None:
 
 
 def assert_no_leftovers() -> None:
-    from sdvisc.cleanup import leftovers
+    from host_tools.cleanup import leftovers
 
     left = leftovers()
     assert left == {"processes": [], "bridges": [], "links": [], "cpu_split": []}, f"a run left things behind: {left}"

@@ -1,4 +1,4 @@
-"""The CPU split on real Open vSwitch and Mininet (sdvisc/cpu_split.py): during a run every service
+"""The CPU split on real Open vSwitch and Mininet (host_tools/cpu_split.py): during a run every service
 may run only on the run's CPUs and every thread of ovs-vswitchd only on the switch's; after the run,
 and after a run that was killed (``sdvisc clean``), ovs-vswitchd may run everywhere again."""
 
@@ -12,7 +12,7 @@ import time
 
 import pytest
 
-from sdvisc import cpu_split
+from host_tools import cpu_split
 from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario, sdvisc
 
 pytestmark = pytest.mark.network

@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from sdvisc.impairment import binomial_interval
+from impairment.queue import binomial_interval
 from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario
 
 pytestmark = pytest.mark.network

@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from sdvisc.pcap import read_pcap
+from host_tools.pcap import read_pcap
 from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario, sdvisc
 
 pytestmark = pytest.mark.network

@@ -1,11 +1,11 @@
-"""The CPU split's plan (sdvisc/cpu_split.py): which CPUs Open vSwitch gets and which the run."""
+"""The CPU split's plan (host_tools/cpu_split.py): which CPUs Open vSwitch gets and which the run."""
 
 from __future__ import annotations
 
 from hypothesis import given
 from hypothesis import strategies as st
 
-from sdvisc.cpu_split import plan
+from host_tools.cpu_split import plan
 
 
 def test_two_cpus_give_the_switch_the_second_and_the_run_the_first():

@@ -12,7 +12,10 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 FLOORS = {
-    "sdvisc": 0,  # wire format, vocabulary, configuration schema, clock, netns and file helpers
+    "sdvisc": 0,  # the contract: wire format, vocabulary, configuration schema, clock, netns and file helpers
+    "owfcc": 1,  # the OWFCC process
+    "impairment": 1,  # the link impairment queue and its element process
+    "host_tools": 1,  # cleanup, CPU split, capture decoder, hostile-traffic sender
     "sdc_unit": 1,  # the SDC's law, discretisations, controller bank (and its service)
     "topologies": 1,  # Mininet topologies (what the network is)
     "sdn_app": 1,  # the SDN logic (above the vocabulary only) and its os-ken shim
@@ -21,7 +24,7 @@ FLOORS = {
     "benchmarks": 4,
     "report": 4,  # the paper report (python -m report): runs scenarios as subprocesses; imports two constants of them
 }
-SERVICES = {"service", "app", "__main__", "owfcc", "fuzz"}  # processes, not models
+SERVICES = {"service", "app", "__main__", "element", "fuzz"}  # processes, not models
 MODELS = {("sdc_unit", "law"), ("sdc_unit", "params"), ("sdc_unit", "blocks"), ("sdc_unit", "discrete"),
           ("plant", "sim"), ("plant", "turbine"), ("plant", "network"), ("plant", "params"), ("plant", "minimal")}
 
@@ -86,6 +89,23 @@ def test_no_package_imports_a_package_above_it(graph):
 def test_the_bottom_floor_imports_nothing_of_the_project_but_itself(graph):
     bad = [(a, b) for a, b in graph.edges if a.startswith("sdvisc") and not b.startswith("sdvisc")]
     assert bad == []
+
+
+def test_the_ground_floor_is_the_contract_only():
+    """sdvisc/ is what every package must agree on (wire, layouts, vocabulary, config, clock, small
+    shared utilities): no module of it is a process (no ``__main__``, no argument parser), starts one
+    or sends signals; processes and host tools live a floor up, named for what they are."""
+    found = {}
+    for path in sorted((ROOT / "sdvisc").glob("*.py")):
+        tree = ast.parse(path.read_text())
+        names = {a.name for node in ast.walk(tree) if isinstance(node, ast.Import) for a in node.names}
+        names |= {node.module for node in ast.walk(tree) if isinstance(node, ast.ImportFrom) and node.module}
+        mains = [node for node in ast.walk(tree) if isinstance(node, ast.Compare)
+                 and any(isinstance(c, ast.Constant) and c.value == "__main__" for c in node.comparators)]
+        bad = sorted(names & {"argparse", "subprocess", "signal", "multiprocessing"}) + (["__main__"] if mains else [])
+        if bad:
+            found[path.name] = bad
+    assert found == {}, f"processes or process control on the ground floor: {found}"
 
 
 def test_the_sdn_logic_stands_on_the_vocabulary_only(graph):

@@ -7,11 +7,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from impairment.element import tbf_args
+from impairment.queue import Impairment, Phase, TimedQueue, binomial_interval
 from scenarios.impairments import netem_args, parse_cli_values
 from scenarios.loader import ScenarioError, load_scenario
 from sdvisc.clock import ManualClock
-from sdvisc.impair_node import tbf_args
-from sdvisc.impairment import Impairment, Phase, TimedQueue, binomial_interval
 from topologies import topos
 from topologies.base import describe
 
@@ -194,8 +194,8 @@ def test_a_valid_impaired_scenario_loads(tmp_path):
 
 
 def test_cleanup_knows_the_elements():
-    from sdvisc import cleanup
+    from host_tools import cleanup
 
     assert cleanup.LINK_RE.match("imp1-eth0") and cleanup.LINK_RE.match("imp12")  # a crash mid-build leaves veths
     assert not cleanup.LINK_RE.match("impish")
-    assert any("-m sdvisc.impair_node" in marker for marker in cleanup.PROCESS_MARKERS)
+    assert any("-m impairment.element" in marker for marker in cleanup.PROCESS_MARKERS)

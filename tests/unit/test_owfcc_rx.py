@@ -1,4 +1,4 @@
-"""The OWFCC's receive path (sdvisc.owfcc.Owfcc.receive and _on_reply), without the network
+"""The OWFCC's receive path (owfcc.service.Owfcc.receive and _on_reply), without the network
 (issue 13): a stand-in socket records what is sent and hands out queued datagrams."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ import pytest
 from hypothesis import HealthCheck, event, given, settings
 from hypothesis import strategies as st
 
+from owfcc.service import COMMANDS, RX_REASONS, Owfcc
 from sdvisc import wire
 from sdvisc.config import OwfccConfig
-from sdvisc.owfcc import COMMANDS, RX_REASONS, Owfcc
 
 FUZZ = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow,
                                                                            HealthCheck.function_scoped_fixture])

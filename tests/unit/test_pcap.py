@@ -1,4 +1,4 @@
-"""Unit tests of sdvisc.pcap: the scapy GTNET layer, read_pcap and the command line tool."""
+"""Unit tests of host_tools.pcap: the scapy GTNET layer, read_pcap and the command line tool."""
 
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ from scapy.layers.l2 import Ether
 from scapy.packet import Raw
 from scapy.utils import wrpcap
 
-from sdvisc import pcap, wire
+from host_tools import pcap
+from sdvisc import wire
 from sdvisc.wire import Header, MsgType, encode
 
 TURBINE = "10.0.1.1"

@@ -1,4 +1,4 @@
-"""Hostile traffic for the testbed's own ports: ``python -m sdvisc.fuzz --config FILE``, run by the
+"""Hostile traffic for the testbed's own ports: ``python -m host_tools.fuzz --config FILE``, run by the
 scenario runner inside a Mininet host (timeline action ``fuzz``).
 
 Every datagram is one of four kinds, drawn with a seeded generator so a run can be repeated:
@@ -146,7 +146,7 @@ def spoof_ak(cfg: dict) -> dict:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sdvisc.fuzz", description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(prog="python -m host_tools.fuzz", description=__doc__.splitlines()[0])
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
     cfg = json.loads(Path(args.config).read_text())

@@ -1,6 +1,6 @@
 """The offshore wind-farm control centre (OWFCC): asks the SDN application for ViSC service.
 
-``python -m sdvisc.owfcc --config FILE`` runs in the ``owfcc`` Mininet host. It reads commands as
+``python -m owfcc.service --config FILE`` runs in the ``owfcc`` Mininet host. It reads commands as
 JSON lines on stdin (the runner plays the scenario timeline into it)::
 
     {"cmd": "visc_on", "wt": "wt1_1", "params": {"h": 3.0, "m_q": 0.02}}
@@ -189,7 +189,7 @@ class Owfcc:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sdvisc.owfcc", description=__doc__)
+    parser = argparse.ArgumentParser(prog="python -m owfcc.service", description=__doc__)
     parser.add_argument("--config", required=True)
     args = parser.parse_args(argv)
     try:

@@ -8,7 +8,7 @@ probability ``loss`` (seeded numpy generator), otherwise it leaves no earlier th
 ``t + delay + jitter draw`` and never before the frame ahead of it (a link does not reorder:
 release times are clamped to be non-decreasing). Times are the caller's clock's seconds (the run's
 simulated seconds, :mod:`sdvisc.clock`), so delays scale with virtual time. Bandwidth is not
-applied here (the element puts a TBF qdisc on its egress, :mod:`sdvisc.impair_node`).
+applied here (the element puts a TBF qdisc on its egress, :mod:`impairment.element`).
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 """An impairment element: forwards Ethernet frames between two interfaces through a timed queue.
 
-``python -m sdvisc.impair_node --config FILE`` runs inside a Mininet host that sits in a
+``python -m impairment.element --config FILE`` runs inside a Mininet host that sits in a
 switch-to-switch link (one interface toward each switch; topologies.base). Where the kernel has no
 ``netem`` this is how the testbed delays, jitters and drops frames on a link. It is transparent at
 L2: raw ``AF_PACKET`` sockets on both interfaces (promiscuous, offloads off, its own outgoing frames
 ignored), no IP or IPv6 of its own, so the switches see each other as neighbours, port status and
 link failures pass through (the runner takes the element's interfaces down with the link).
 
-Each direction is a :class:`sdvisc.impairment.TimedQueue` on the run's clock (simulated seconds,
+Each direction is a :class:`impairment.queue.TimedQueue` on the run's clock (simulated seconds,
 so delays scale with ``time_scale``); a frame's arrival time is the kernel's receive timestamp.
 Bandwidth, if set, is a TBF qdisc on each egress interface at ``bw_mbps / time_scale`` of wall
 rate (so it is ``bw_mbps`` in simulated time). Commands arrive as JSON lines on stdin::
@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from impairment.queue import Impairment, Phase, TimedQueue
 from sdvisc.config import ClockSettings, ConfigError, ImpairNodeConfig, load_config
-from sdvisc.impairment import Impairment, Phase, TimedQueue
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.latest_writer import LatestWriter
 from sdvisc.netns import raise_priority

@@ -11,7 +11,7 @@ others have just used. Split, the switch never waits for an endpoint and each si
 with fewer than two). :func:`apply` pins every thread of every ovs-vswitchd process and of the calling
 process (so every host shell and service the run starts afterwards inherits the endpoints' CPUs) and
 writes what it changed to :data:`MARKER` first; :func:`restore` puts everything back and removes the
-marker. :func:`sdvisc.cleanup.clean` calls :func:`restore` too, so a run that was killed leaves no
+marker. :func:`host_tools.cleanup.clean` calls :func:`restore` too, so a run that was killed leaves no
 pinned switch behind once any later run or ``sdvisc clean`` starts.
 """
 

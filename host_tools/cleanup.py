@@ -14,13 +14,13 @@ import signal
 import subprocess
 import time
 
-from sdvisc import cpu_split
+from host_tools import cpu_split
 
 SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
 BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
 LINK_RE = re.compile(rf"^(?:{SWITCH_NAME}|imp\d+)(?:-eth\d+)?$")  # imp<n>: impairment elements (topologies.base)
-PROCESS_MARKERS = ("-m sdn_app", "-m plant.service", "-m sdc_unit.service", "-m sdc_unit.pilot", "-m sdvisc.owfcc",
-                   "-m sdvisc.impair_node",
+PROCESS_MARKERS = ("-m sdn_app", "-m plant.service", "-m sdc_unit.service", "-m sdc_unit.pilot", "-m owfcc.service",
+                   "-m impairment.element",
                    "sdvisc-capture", "mininet:")
 
 

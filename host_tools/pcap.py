@@ -4,7 +4,7 @@ Importing this module binds the :class:`GTNET` layer (VILLAS 3-word header) to t
 testbed's UDP ports, so ``rdpcap(...)[0].show()`` names every word.  Captures of
 plain GTNET-SKT without the header: call ``bind_gtnet(header=False)`` first.
 
-``python -m sdvisc.pcap FILE [--no-header] [--type MEAS] [--limit N]`` prints one
+``python -m host_tools.pcap FILE [--no-header] [--type MEAS] [--limit N]`` prints one
 line per datagram and a count per message type and rejection reason.
 """
 
@@ -217,7 +217,7 @@ def _message_type(name: str) -> MsgType:
 
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
-        prog="python -m sdvisc.pcap",
+        prog="python -m host_tools.pcap",
         description="Print the SDViSC GTNET-SKT datagrams of a pcap/pcapng capture, then counts.",
     )
     parser.add_argument("file", help="pcap or pcapng capture")
