@@ -196,7 +196,7 @@ class Kill(_Event):
 
 class Fuzz(_Event):
     """Send hostile datagrams (random, truncated, bit-flipped and extreme-word copies of real
-    messages; :mod:`sdvisc.fuzz`) from ``host``'s own namespace to the testbed ports of
+    messages; :mod:`host_tools.fuzz`) from ``host``'s own namespace to the testbed ports of
     ``targets`` (host names, or ``controller`` for the SDN app's virtual address)."""
 
     do: Literal["fuzz"]
@@ -310,7 +310,7 @@ class Scenario(Strict):
                             "across every bridge; a failed link is removed; scenarios/switch_links.py)")
     cpu_split: bool = Field(
         False, description="Open vSwitch's threads on a CPU of their own, the run's processes on the others "
-                           "(sdvisc/cpu_split.py); nothing with one CPU")
+                           "(host_tools/cpu_split.py); nothing with one CPU")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)

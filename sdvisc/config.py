@@ -207,7 +207,7 @@ class OwfccOptions(_Config):
 
 
 class OwfccConfig(ProcessBase, OwfccOptions):
-    """``python -m sdvisc.owfcc``."""
+    """``python -m owfcc.service``."""
 
 
 class SwitchInfo(_Config):
@@ -290,7 +290,7 @@ class LinkImpairmentOptions(_Config):
 
 
 class ImpairNodeConfig(ClockSettings, OutputDir, RealtimePriority, LinkEnds, LinkImpairmentOptions):
-    """``python -m sdvisc.impair_node``: an impairment element forwarding frames between its two
+    """``python -m impairment.element``: an impairment element forwarding frames between its two
     interfaces (one toward switch ``a``, one toward ``b``) through a timed queue."""
 
     name: str = Field(description="the element's host name")
