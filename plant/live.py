@@ -74,16 +74,18 @@ class LivePublisher:
                             "t_loss": self._t(ep.last_ctrl_wall)})
 
     # ------------------------------------------------------------------ status
-    def write_status(self, service, now: float) -> None:
+    def write_status(self, core, now: float, late_steps: int) -> None:
         """Replace ``plant_status.json`` (compact JSON, one write and a rename in a background thread:
-        a reader never sees half a file, the paced loop never waits for the disk). Turbines that never sent or received a packet are left out (a 50-turbine
-        farm with a few ViSC turbines stays small)."""
-        endpoints = service.endpoints
+        a reader never sees half a file, the paced loop never waits for the disk) with the state of
+        ``core`` (a :class:`plant.service_core.PlantCore`; ``late_steps``: the paced loop's).
+        Turbines that never sent or received a packet are left out (a 50-turbine farm with a few
+        ViSC turbines stays small)."""
+        endpoints = core.endpoints
         streaming = [ep for ep in endpoints if ep.streaming]
         turbines = {ep.name: {"streaming": False, "meas_tx": ep.counts["meas_tx"], "ctrl_rx": ep.counts["ctrl_rx"]}
                     for ep in endpoints if not ep.streaming and (ep.counts["meas_tx"] or ep.counts["ctrl_rx"])}
         if streaming:
-            meas = service.model.measurements()
+            meas = core.model.measurements()
             index = [ep.index for ep in streaming]
             v = np.hypot(meas["v_d"][index], meas["v_q"][index]).tolist()
             p, q = meas["p"][index].tolist(), meas["q"][index].tolist()
@@ -96,8 +98,8 @@ class LivePublisher:
                     "v": round(v[j], 6), "p": round(p[j], 6), "q": round(q[j], 6), "f_hz": round(f[j], 5),
                     "ctrl_delay_ms": round(delay_sum_ms / delay_n, 4) if delay_n else None,
                     "t_last_ctrl": self._t(ep.last_ctrl_wall) if ep.last_ctrl_wall > float("-inf") else None}
-        status = {"t_sim": service.k * service.step_s, "steps": service.k, "n_steps": service.n_steps,
-                  "late_steps": service.late_steps, "t_wall": now,
+        status = {"t_sim": core.k * core.step_s, "steps": core.k, "n_steps": core.n_steps,
+                  "late_steps": late_steps, "t_wall": now,
                   "meas_tx": sum(ep.counts["meas_tx"] for ep in endpoints),
                   "ctrl_rx": sum(ep.counts["ctrl_rx"] for ep in endpoints),
                   "streaming": [ep.name for ep in streaming], "turbines": turbines}

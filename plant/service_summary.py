@@ -7,24 +7,27 @@ from plant import endpoint_rx
 from sdvisc.stats import delay_summary
 
 
-def summarise(service) -> dict:
-    """The plant service's stats after its run (``service``: a :class:`plant.service.PlantService`)."""
+def summarise(core, pacing, extremes: dict, *, scheduling: str = "default", cpu_s: float = 0.0) -> dict:
+    """The plant service's stats after its run: ``core`` (a :class:`plant.service_core.PlantCore`),
+    ``pacing`` (its loop's :class:`plant.service_core.Pacing`), ``extremes`` (the recorder's,
+    :meth:`plant.recorder.Recorder.extremes`), the loop's ``scheduling`` and process CPU ``cpu_s``."""
+    model, endpoints = core.model, core.endpoints
     return {
-        "steps": service.k,
-        "scheduling": getattr(service, "scheduling", "default"),
-        "late_steps": service.late_steps,
-        "cpu_s": round(getattr(service, "cpu_s", 0.0), 4),
-        "converter_trips": {ep.name: int(service.model.trips[ep.index]) for ep in service.endpoints
-                            if getattr(service.model, "trips", None) is not None and service.model.trips[ep.index]},
-        "fallbacks": {ep.name: int(service.model.fallbacks[ep.index]) for ep in service.endpoints
-                      if getattr(service.model, "fallbacks", None) is not None and service.model.fallbacks[ep.index]},
-        "max_lateness_ms": service.max_lateness_s * 1e3,
-        "stalls": [{"t_sim": t, "worst_ms": ms, "steps": last - round(t / service.step_s) + 1} for t, ms, last in service.stalls],
-        "frequency_hz": service.recorder.extremes()["f_pcc_hz"],
-        "batteries": _battery_summary(service),
-        "rx_wire": service.rx_stats.as_dict(),
-        "rx_rejected": endpoint_rx.rejections_by_reason(ep.counts for ep in service.endpoints),
-        "events": service.events_applied,
+        "steps": core.k,
+        "scheduling": scheduling,
+        "late_steps": pacing.late_steps,
+        "cpu_s": round(cpu_s, 4),
+        "converter_trips": {ep.name: int(model.trips[ep.index]) for ep in endpoints
+                            if getattr(model, "trips", None) is not None and model.trips[ep.index]},
+        "fallbacks": {ep.name: int(model.fallbacks[ep.index]) for ep in endpoints
+                      if getattr(model, "fallbacks", None) is not None and model.fallbacks[ep.index]},
+        "max_lateness_ms": pacing.max_lateness_s * 1e3,
+        "stalls": [{"t_sim": t, "worst_ms": ms, "steps": last - round(t / core.step_s) + 1} for t, ms, last in pacing.stalls],
+        "frequency_hz": extremes["f_pcc_hz"],
+        "batteries": _battery_summary(core, extremes["batteries"]),
+        "rx_wire": core.rx_stats.as_dict(),
+        "rx_rejected": endpoint_rx.rejections_by_reason(ep.counts for ep in endpoints),
+        "events": core.events_applied,
         "turbines": {
             ep.name: {**ep.counts, "first_meas_tx_t": ep.first_meas_tx_t, "first_ctrl_rx_t": ep.first_ctrl_rx_t,
                       "last_ctrl_rx_t": ep.last_ctrl_rx_t, "ak_ones": ep.ak_ones,
@@ -34,22 +37,22 @@ def summarise(service) -> dict:
                       "ctrl_one_way_ms": delay_summary(ep.ctrl_delays_ms),
                       "rtt_samples": {**{str(n + 1): c for n, c in enumerate(ep.rtt_samples[:-1]) if c},
                                       **({f">{len(ep.rtt_samples) - 1}": ep.rtt_samples[-1]} if ep.rtt_samples[-1] else {})}}
-            for ep in service.endpoints
+            for ep in endpoints
         },
     }
 
 
-def _battery_summary(service) -> dict:
+def _battery_summary(core, recorded: dict) -> dict:
     """Per battery turbine: SOC at t = 0 and now, the smallest recorded, the change, the energy
     delivered to the DC link (MWh) and the largest recorded power (p.u.)."""
-    if not service.batteries:
+    if not core.batteries:
         return {}
-    batt, rec = service.model.tb.batt, service.recorder.extremes()["batteries"]
+    batt = core.model.tb.batt
     energy = batt.energy_mwh()
     out = {}
-    for name, i in service.batteries.items():
+    for name, i in core.batteries.items():
         soc = float(batt.soc[i])
-        out[name] = {"soc_start": round(service.soc_start[name], 8), "soc_end": round(soc, 8),
-                     "soc_change": round(soc - service.soc_start[name], 8), "soc_min": rec[name]["soc_min"],
-                     "energy_mwh": round(float(energy[i]), 6), "p_batt_max_pu": rec[name]["p_batt_max"]}
+        out[name] = {"soc_start": round(core.soc_start[name], 8), "soc_end": round(soc, 8),
+                     "soc_change": round(soc - core.soc_start[name], 8), "soc_min": recorded[name]["soc_min"],
+                     "energy_mwh": round(float(energy[i]), 6), "p_batt_max_pu": recorded[name]["p_batt_max"]}
     return out

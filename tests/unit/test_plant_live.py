@@ -9,19 +9,19 @@ import numpy as np
 import pytest
 
 from plant.live import LOSS_REPORT_S, LivePublisher
-from plant.service import Endpoint
+from plant.service_core import Endpoint
 
 T0 = 1000.0
 
 
 def streaming_endpoint(now: float) -> Endpoint:
-    ep = Endpoint("wt1_1", 101, 0, sock=None)
+    ep = Endpoint("wt1_1", 101, 0)
     ep.streaming, ep.awaiting_first_ctrl, ep.stream_started_wall = True, True, now
     return ep
 
 
 def ctrl(live: LivePublisher, ep: Endpoint, now: float) -> None:
-    live.on_ctrl(ep, now)  # what PlantService._on_ctrl does, in this order
+    live.on_ctrl(ep, now)  # what PlantCore._on_ctrl does, in this order
     ep.last_ctrl_wall = now
 
 
@@ -69,21 +69,21 @@ def test_status_has_v_q_f_and_delay_of_streaming_turbines_only(tmp_path):
             return {"v_d": np.array([0.6, 1.0, 1.0]), "v_q": np.array([0.8, 0.0, 0.0]), "p": np.array([0.5, 0.0, 0.0]),
                     "q": np.array([0.1, 0.0, 0.0]), "omega_meas": np.array([1.002, 1.0, 1.0])}
 
-    class Service:
-        k, step_s, n_steps, late_steps, model = 1500, 0.001, None, 3, Model()
+    class Core:
+        k, step_s, n_steps, model = 1500, 0.001, None, Model()
 
-    on = Endpoint("wt1_1", 101, 0, sock=None)
+    on = Endpoint("wt1_1", 101, 0)
     on.streaming, on.last_ctrl_wall, on.live_delay = True, T0 + 1.4, [1.5, 3]
-    off = Endpoint("wt1_2", 102, 1, sock=None)  # streamed before, stopped
+    off = Endpoint("wt1_2", 102, 1)  # streamed before, stopped
     off.counts.update(meas_tx=40, ctrl_rx=38)
-    idle = Endpoint("wt1_3", 103, 2, sock=None)  # never took part: left out
-    Service.endpoints = [on, off, idle]
+    idle = Endpoint("wt1_3", 103, 2)  # never took part: left out
+    Core.endpoints = [on, off, idle]
     live = LivePublisher(tmp_path, [])
     live.t0 = T0
-    live.write_status(Service, T0 + 1.5)
+    live.write_status(Core, T0 + 1.5, late_steps=3)
     live.close()  # the status is written in the background; close writes the last one
     status = json.loads((tmp_path / "plant_status.json").read_text())
-    assert status["t_sim"] == 1.5 and status["n_steps"] is None and status["streaming"] == ["wt1_1"]
+    assert status["t_sim"] == 1.5 and status["n_steps"] is None and status["late_steps"] == 3 and status["streaming"] == ["wt1_1"]
     row = status["turbines"]["wt1_1"]
     assert (row["v"], row["q"], row["p"], row["f_hz"], row["ctrl_delay_ms"]) == (1.0, 0.1, 0.5, 50.1, 0.5)
     assert row["t_last_ctrl"] == pytest.approx(1.4)

@@ -1,9 +1,9 @@
-"""The plant's turbine receive step (plant.endpoint_rx.receive) on its own, and PlantService._drain
-around it (issue 13).
+"""The plant's turbine receive step (plant.endpoint_rx.receive) on its own, and the service's
+``_drain`` (plant.service) with its core (plant.service_core.PlantCore) around it (issue 13).
 
-The receive step needs no socket, clock or model: an ``Endpoint`` with ``sock=None`` is all its
-state. Only the ``_drain`` tests at the end use stand-ins: a fake socket and poller that hand out
-queued datagrams, and a model that records what ``apply_remote`` receives.
+The receive step needs no socket, clock or model: an ``Endpoint`` is all its state. Only the
+``_drain`` tests at the end use stand-ins: a fake socket and poller that hand out queued
+datagrams, and a model that records what ``apply_remote`` receives.
 """
 
 from __future__ import annotations
@@ -18,9 +18,11 @@ from hypothesis import strategies as st
 
 from plant import endpoint_rx
 from plant.endpoint_rx import APPLY, IGNORE, MAX_REF_PU, REASONS, REQUEST, receive
-from plant.live import LivePublisher
-from plant.service import Endpoint, PlantService
+from plant.service import PlantService
+from plant.service_core import Endpoint, PlantCore
 from sdvisc import wire
+from sdvisc.config import PlantConfig
+from sdvisc.vocabulary import MEAS_FIELDS
 
 SDC = "10.0.0.21"
 VIP = "10.0.0.254"
@@ -30,7 +32,7 @@ FUZZ = settings(max_examples=200, deadline=None, suppress_health_check=[HealthCh
 
 
 def endpoint(meas_seq: int = 100, ctrl_seq: int = -1, sdc: str | None = SDC) -> Endpoint:
-    ep = Endpoint("wt1_1", WID, 0, sock=None, streaming=sdc is not None,
+    ep = Endpoint("wt1_1", WID, 0, streaming=sdc is not None,
                   sdc_addr=(sdc, wire.PORT_SDC) if sdc else None, meas_seq=meas_seq)
     ep.ctrl_seq = ctrl_seq
     return ep
@@ -252,7 +254,7 @@ def test_hostile_traffic_never_raises_applies_nothing_implausible_and_never_bloc
         elif action == REQUEST:
             assert not changed and src == VIP and msg["wt"] == WID
             assert msg["cmd"] in (wire.Command.STREAM_START, wire.Command.STREAM_STOP)
-            if msg["cmd"] == wire.Command.STREAM_START:  # what PlantService._on_request does
+            if msg["cmd"] == wire.Command.STREAM_START:  # what PlantCore._on_request does
                 ep.sdc_addr = (wire.i32_to_ip(msg["sdc_ip"]), wire.PORT_SDC)
         else:
             assert action == IGNORE and msg is None and ep.ctrl_seq == ctrl_seq_before
@@ -272,7 +274,7 @@ def test_hostile_traffic_never_raises_applies_nothing_implausible_and_never_bloc
     assert rx(ep, ctrl(ep.meas_seq), src=sdc)[0] == APPLY
 
 
-# --- PlantService._drain with stand-ins for the socket, poller and model ----------------------
+# --- PlantService._drain and PlantCore with stand-ins for the socket, poller and model --------
 
 
 class FakeSock:
@@ -300,7 +302,7 @@ class FakePoller:
 
 
 class RecordingModel:
-    """Stand-in for the plant model: records apply_remote and set_mode calls."""
+    """Stand-in for the plant model: records apply_remote and set_mode calls; one turbine."""
 
     def __init__(self) -> None:
         self.applied: list[tuple] = []
@@ -312,16 +314,21 @@ class RecordingModel:
     def set_mode(self, index: int, mode: str) -> None:
         self.modes.append((index, mode))
 
+    def step(self) -> None:
+        pass
+
+    def measurements(self) -> dict:
+        return {key: np.ones(1) for key in MEAS_FIELDS}
+
 
 def service(queue: list, model=None) -> PlantService:
     svc = PlantService.__new__(PlantService)  # no sockets, no model build
-    ep = Endpoint("wt1_1", WID, 0, FakeSock(7, queue))
-    svc.endpoints, svc.by_fd = [ep], {7: ep}
+    cfg = PlantConfig(duration_s=None, turbines=[{"name": "wt1_1", "wid": WID, "ip": "10.0.1.1"}], out_dir="unused",
+                      step_s=0.001, controller_vip=VIP)
+    svc.core = PlantCore(cfg, model or RecordingModel(), [0])
+    ep, sock = svc.core.endpoints[0], FakeSock(7, queue)
+    svc.socks, svc.by_fd = {ep.name: sock}, {7: (ep, sock)}
     svc.poller, svc.commands = FakePoller([7]), None
-    svc.header, svc.vip, svc.check_rx_source = True, VIP, True
-    svc.rx_stats, svc.model, svc.events_applied = wire.DecodeStats(), model or RecordingModel(), []
-    svc.k, svc.step_s = 0, 0.001
-    svc.live = LivePublisher(None, svc.events_applied)
     return svc
 
 
@@ -329,8 +336,8 @@ def test_drain_applies_only_the_newest_plausible_ctrl_and_counts_the_rest():
     queue = [(request(wire.Command.STREAM_START), (VIP, wire.PORT_CONTROLLER))]
     svc = service(queue)
     svc._drain(1.0)
-    ep = svc.endpoints[0]
-    assert ep.streaming and ep.sdc_addr == (SDC, wire.PORT_SDC) and svc.model.modes == [(0, "remote")]
+    ep = svc.core.endpoints[0]
+    assert ep.streaming and ep.sdc_addr == (SDC, wire.PORT_SDC) and svc.core.model.modes == [(0, "remote")]
     ep.meas_seq = 3
     queue += [(ctrl(2), (SDC, wire.PORT_SDC)),
               (ctrl(3, v=(float(np.float32(3e38)), 0.0)), (SDC, wire.PORT_SDC)),  # out_of_range
@@ -339,7 +346,9 @@ def test_drain_applies_only_the_newest_plausible_ctrl_and_counts_the_rest():
               (ctrl(3), (OTHER, wire.PORT_SDC)),  # not_from_sdc
               (ctrl(1), (SDC, wire.PORT_SDC))]  # stale
     svc._drain(1.001)
-    assert svc.model.applied == [([0], [1.0], [pytest.approx(0.1)], [0.5], [pytest.approx(-0.2)])]
+    assert svc.core.model.applied == []  # at the start of the next step, the newest one only
+    svc.core.step(1.001)
+    assert svc.core.model.applied == [([0], [1.0], [pytest.approx(0.1)], [0.5], [pytest.approx(-0.2)])]
     assert ep.counts["ctrl_rx"] == 1 and ep.counts["ctrl_stale"] == 1 and ep.ctrl_seq == 2
     assert rejections(ep) == {"out_of_range": 1, "future_seq": 1, "length": 1, "not_from_sdc": 1}
     summary_counts = {k: ep.counts[k] for k in ("rx_rejected", "requests_rx")}
@@ -356,7 +365,7 @@ def test_drain_survives_an_exception_from_one_datagram_and_a_socket_error(capsys
     queue = [(request(wire.Command.STREAM_START), (VIP, wire.PORT_CONTROLLER)),
              (request(wire.Command.STREAM_STOP), (VIP, wire.PORT_CONTROLLER))]
     svc = service(queue, BrokenModel())
-    ep = svc.endpoints[0]
+    ep = svc.core.endpoints[0]
     endpoint_rx._internal_logged.clear()
     svc._drain(1.0)  # both requests raise inside the model: counted, the loop goes on
     assert rejections(ep) == {"internal": 2} and ep.counts["rx_rejected"] == 2
@@ -376,7 +385,7 @@ def test_ctrl_lost_on_the_way_is_recorded_where_the_path_delivered_again():
     queue = [(request(wire.Command.STREAM_START), (VIP, wire.PORT_CONTROLLER))]
     svc = service(queue)
     svc._drain(1.0)
-    ep = svc.endpoints[0]
+    ep = svc.core.endpoints[0]
     ep.meas_seq = 20
     for own, meas, sent in ((1, 1, (2, 0)), (2, 2, (2, 670_000)), (6, 7, (2, 4_020_000)), (7, 8, (2, 4_690_000))):
         queue.append((ctrl(meas, own_seq=own, sent=sent), (SDC, wire.PORT_SDC)))
