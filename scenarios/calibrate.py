@@ -5,8 +5,8 @@ first, stopping at the first that passes), the runner plays a pilot of the run i
 
 * **the plant**: this scenario's plant model, with its ViSC turbines in remote mode, stepped
   paced at k·Ts in the runner's process (the same model code the plant service runs), and each
-  step one real MEAS per ViSC turbine (the model's own measurements, GTNET header) sent from that
-  turbine's namespace; the step's compute (model, encoding, sending, reading the CTRLs) is timed and
+  step one real MEAS per ViSC turbine (the model's own measurements, GTNET header, packed by the
+  service's own :class:`plant.endpoint_tx.MeasPacker`) sent from that turbine's namespace; the step's compute (model, encoding, sending, reading the CTRLs) is timed and
   its busy fraction is cost / (k·Ts);
 * **the SDC**: the real SDC service (:mod:`sdc_unit.pilot`: :class:`sdc_unit.service.SdcService`
   with the run's configuration, one instance per ViSC turbine) on the primary SDC's host answers
@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import networkx as nx
 import numpy as np
 
+from plant.endpoint_tx import MeasPacker
 from plant.service import build_model
 from scenarios import configs
 from sdvisc import rxstamp, wire
@@ -149,6 +150,7 @@ class PilotSetup:
     seq: int = 0  # MEAS counter, continued over the candidates (the SDC checks seq against t_sim)
     sent: dict = field(default_factory=dict)  # (wid, seq) -> wall ns the MEAS was sent
     pilot_pid: int | None = None
+    packer: MeasPacker = field(default_factory=lambda: MeasPacker(header=True))  # the plant service's encoder
 
 
 def pilot_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, list[str]]:
@@ -295,12 +297,14 @@ class Calibration:
         setup.seq += 1
         t_sim = setup.seq * self.step_s
         dst = (setup.sdc_ip, wire.PORT_SDC)
+        columns = [meas[key] for key in MEAS_FIELDS]
         for j, wt in enumerate(setup.turbines):
-            values = {"wt": setup.wids[wt], "seq": setup.seq, "t_sim": t_sim,
-                      **{key: float(meas[key][setup.indices[j]]) for key in MEAS_FIELDS}}
-            now = time.time()
-            setup.sent[(setup.wids[wt], setup.seq)] = time.time_ns()
-            setup.socks[wt].sendto(wire.encode(wire.MsgType.MEAS, values, header=wire.Header.at(setup.seq, now)), dst)
+            now_ns = time.time_ns()
+            sec, nsec = divmod(now_ns, 1_000_000_000)
+            data = setup.packer.pack(setup.wids[wt], setup.seq, t_sim, [float(c[setup.indices[j]]) for c in columns],
+                                     sec, nsec)
+            setup.sent[(setup.wids[wt], setup.seq)] = now_ns
+            setup.socks[wt].sendto(data, dst)
 
     def _trial(self, setup: PilotSetup, k: float) -> dict:
         period = k * self.step_s
