@@ -19,6 +19,9 @@ from dataclasses import asdict, dataclass, replace
 from statistics import NormalDist
 
 import numpy as np
+from pydantic import ValidationError
+
+from sdvisc.config import LinkImpairmentOptions
 
 DRAW_BATCH = 4096  # uniform draws fetched from the generator at once (a scalar draw per frame is slow)
 KEYS = ("delay_ms", "jitter_ms", "loss", "bw_mbps")
@@ -34,14 +37,19 @@ class Impairment:
     bw_mbps: float | None = None
 
     def __post_init__(self) -> None:
-        for key in ("delay_ms", "jitter_ms"):
-            value = getattr(self, key)
-            if not (0.0 <= value <= 10_000.0):
-                raise ValueError(f"{key} must be within 0..10000 ms, got {value}")
-        if not (0.0 <= self.loss <= 1.0):
-            raise ValueError(f"loss must be a probability within 0..1, got {self.loss}")
-        if self.bw_mbps is not None and not (0.0 < self.bw_mbps <= 100_000.0):
-            raise ValueError(f"bw_mbps must be within 0..100000 (exclusive of 0), got {self.bw_mbps}")
+        """The bounds of a scenario's ``links`` entries (:class:`sdvisc.config.LinkImpairmentOptions`,
+        defined once there): an impairment set at run time (the CLI's ``impair``) obeys the same."""
+        try:
+            LinkImpairmentOptions(**asdict(self))
+        except ValidationError as exc:
+            problems = "; ".join(f"{'.'.join(map(str, e['loc']))}: {e['msg']}, got {e.get('input')!r}"
+                                 for e in exc.errors())
+            raise ValueError(problems) from None
+
+    @classmethod
+    def of(cls, options: LinkImpairmentOptions) -> Impairment:
+        """The impairment of a scenario's ``links`` entry (its seed is the queue's, not the impairment's)."""
+        return cls(**{key: getattr(options, key) for key in KEYS})
 
     @property
     def delay_s(self) -> float:

@@ -110,7 +110,7 @@ class Impairments:
         self.out = Path(out)
         # patch links have no kernel device for netem: an impaired link gets an element (veths) there
         self.mechanism = ("element" if scenario.switch_links == "patch" else mechanism()) if self._wanted() else None
-        self.initial = {_pair(lk.a, lk.b): Impairment(lk.delay_ms, lk.jitter_ms, lk.loss, lk.bw_mbps)
+        self.initial = {_pair(lk.a, lk.b): Impairment.of(lk)
                         for lk in scenario.links}
         self.seeds = {_pair(lk.a, lk.b): lk.seed for lk in scenario.links}
         self.current: dict[frozenset, Impairment] = {}
