@@ -3,13 +3,13 @@
 Prints ONE JSON object. Each case builds an :class:`sdc_unit.service.SdcService`, starts N
 instances with REQUEST datagrams as the SDN app would, then feeds it realistic MEAS datagrams
 (``sdc_throughput.realistic_measurements``, one per turbine and sample, seq and t_sim advancing)
-through the service's own ``receive`` + ``_serve`` (admission, bank step, CTRL packing and the
-``sendto`` calls), either
+through the service's own ``serve`` (:meth:`sdc_unit.core.SdcCore.handle`: admission, stepping,
+CTRL encoding; then the ``sendto`` calls), either
 
-* ``socket: "memory"`` (default): the datagrams handed to ``receive`` directly, the CTRL datagrams
+* ``socket: "memory"`` (default): the datagrams handed to ``serve`` directly, the CTRL datagrams
   taken by an in-memory socket -- the service's Python and numpy work only; or
 * ``socket: "udp"`` (``--udp``): over loopback UDP (no Mininet): a sender socket on 127.0.8.1 sends
-  each round's MEAS to the service socket, the service reads them with its ``_drain`` (the
+  each round's MEAS to the service socket, the service reads them with its ``wake`` (the
   ``recvfrom`` loop) and sends the CTRL to a sink on 127.0.8.1:``wire.PORT_TURBINE``.
 
 Rounds: ``single`` = each datagram is its own round (what the service does when the turbines' MEAS
@@ -58,7 +58,7 @@ SENDER_IP = "127.0.8.1"
 
 
 class MemorySocket:
-    """What the service needs of a socket when the datagrams are handed to ``receive`` directly."""
+    """What the service needs of a socket when the datagrams are handed to ``serve`` directly."""
 
     def __init__(self) -> None:
         self.sent = 0
@@ -102,7 +102,7 @@ def make_service(n: int, sock, controller_ip: str) -> SdcService:
     svc = SdcService(cfg, sock=sock)
     svc.bank.warm_up()
     for j, wid in enumerate(turbine_ids(n)):
-        svc.receive([(_request(wid, j + 1), (controller_ip, wire.PORT_CONTROLLER))], 0.0)
+        svc.serve([(_request(wid, j + 1), (controller_ip, wire.PORT_CONTROLLER))], 0.0)
     return svc
 
 
@@ -126,20 +126,20 @@ def run_memory(n: int, mode: str, rounds: int, warm: int, gap_s: float = 0.0) ->
     for k, datagrams in enumerate(stream):
         now = (k // (n if mode == "single" else 1)) * TS
         feeds.append(([(d, sender[int.from_bytes(d[16:20], "big")]) for d in datagrams], now))
-    receive, serve = svc.receive, svc._serve
+    serve = svc.serve
     for datagrams, now in feeds[:warm]:
-        serve(receive(datagrams, now), now)
+        serve(datagrams, now)
     if gap_s > 0:
         wall = cpu = 0.0
         for datagrams, now in feeds[warm:]:
             time.sleep(gap_s)
             cpu0, t0 = time.thread_time(), time.perf_counter()
-            serve(receive(datagrams, now), now)
+            serve(datagrams, now)
             wall, cpu = wall + time.perf_counter() - t0, cpu + time.thread_time() - cpu0
     else:
         cpu0, t0 = time.process_time(), time.perf_counter()
         for datagrams, now in feeds[warm:]:
-            serve(receive(datagrams, now), now)
+            serve(datagrams, now)
         wall, cpu = time.perf_counter() - t0, time.process_time() - cpu0
     expected = (rounds + warm) * (n if mode == "batch" else 1) + n  # + the REPLY to each START_INSTANCE
     return {"n": n, "rounds": mode, "us_per_round": round(wall / rounds * 1e6, 2),
@@ -148,7 +148,7 @@ def run_memory(n: int, mode: str, rounds: int, warm: int, gap_s: float = 0.0) ->
 
 
 def run_udp(n: int, mode: str, rounds: int, warm: int) -> dict:
-    """As :func:`run_memory` over loopback UDP: the service's ``_drain`` and real ``sendto``."""
+    """As :func:`run_memory` over loopback UDP: the service's ``wake`` and real ``sendto``."""
     rx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
     rx.bind(("127.0.0.1", 0))
@@ -175,7 +175,7 @@ def run_udp(n: int, mode: str, rounds: int, warm: int) -> dict:
                 tx.sendto(d, dst)
             poller.poll(0.1)  # as the service's loop: wake up, read everything waiting, serve it
             now = k * TS
-            svc._serve(svc._drain(now), now)
+            svc.wake(now)
             while True:  # keep the sink empty (its cost is counted, as a turbine's would be elsewhere)
                 try:
                     sink.recv(2048)

@@ -3,7 +3,8 @@
 A datagram that decodes is not yet a measurement to act on. One SDC serves every turbine, so
 one bad datagram — mutated in flight, sent by a faulty endpoint or by an attacker on a turbine's
 own port — must be dropped and counted, never applied, and never stop the service. The checks,
-in order, each with the reason it is counted under (``SdcService.rejected``):
+in order (:meth:`sdc_unit.core.SdcCore._admit`, for every MEAS whatever the batch), each with the
+reason it is counted under (``SdcCore.rejected``):
 
 * ``unknown_turbine``: ``wt`` is not a turbine id (cluster*100 + number);
 * ``unserved``: a turbine the SDC was not told to serve (no START_INSTANCE; a backup follows the
@@ -30,20 +31,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numpy as np
-
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS, VISC_PARAMS
-from sdvisc.wire_batch import SMALL_BATCH, float_rows
 
 MEAS_ABS_MAX_PU = 100.0
 """Largest magnitude of a per-unit measurement (voltage, current, power, DC voltage, frequency)."""
 T_SIM_MAX_S = 1e7
 """Largest plausible simulation time in a MEAS, s (only garbage is beyond it)."""
-CHECKED_ROWS = ("t_sim", *MEAS_FIELDS)
-"""The MEAS values the range check reads, in this order (consecutive words of the datagram)."""
-ADMIT_WORDS = ("hdr_sec", "hdr_nsec", "wt", "seq", "t_sim")
-"""What the service reads of each MEAS to admit it (the header's send time only with the header)."""
 CONFIRM_WINDOW = 32
 """A jump is confirmed by a later datagram at most this many samples after it."""
 
@@ -65,37 +59,11 @@ def t_sim_tolerance(t_sim: float, step_s: float) -> float:
 
 
 def meas_out_of_range(values: dict) -> bool:
-    """True if a decoded MEAS holds a value no converter can produce."""
-    return bool(out_of_range_rows({k: np.asarray(values[k]) for k in ("t_sim", *MEAS_FIELDS)}))
+    """True if a decoded MEAS (its values by name) holds a value no converter can produce."""
+    return values_out_of_range(values["t_sim"], [values[k] for k in MEAS_FIELDS])
 
 
-def out_of_range_rows(records) -> np.ndarray:
-    """:func:`meas_out_of_range` for every row of a decoded MEAS batch at once (boolean mask);
-    ``records``: a MEAS record array or a dict of columns."""
-    if isinstance(records, np.ndarray):  # t_sim and the measurements are consecutive words: one matrix
-        return out_of_range_matrix(float_rows(records, CHECKED_ROWS))
-    t_sim = records["t_sim"]
-    bad = (t_sim < 0.0) | (t_sim > T_SIM_MAX_S)
-    for k in MEAS_FIELDS:
-        bad |= np.abs(records[k]) > MEAS_ABS_MAX_PU
-    return bad
-
-
-def out_of_range_matrix(rows: np.ndarray) -> np.ndarray:
-    """:func:`out_of_range_rows` of a batch given as its :data:`CHECKED_ROWS` matrix (one column per MEAS)."""
-    t_sim = rows[0]
-    return (t_sim < 0.0) | (t_sim > T_SIM_MAX_S) | (np.abs(rows[1:]) > MEAS_ABS_MAX_PU).any(axis=0)
-
-
-def out_of_range_flags(rows: np.ndarray) -> list[bool]:
-    """``out_of_range_matrix(rows).tolist()``; for a few MEAS in plain Python (for one column the
-    six numpy calls are most of the check's cost, ~20 µs on a service's cold caches)."""
-    if rows.shape[1] > SMALL_BATCH:
-        return out_of_range_matrix(rows).tolist()
-    return [values_out_of_range(t_sim, values) for t_sim, *values in zip(*rows.tolist())]
-
-
-_BEYOND = MEAS_ABS_MAX_PU.__lt__  # |x| > the limit (False for NaN, as in numpy)
+_BEYOND = MEAS_ABS_MAX_PU.__lt__  # |x| > the limit (False for NaN: the wire check rejects NaN before)
 
 
 def values_out_of_range(t_sim: float, values) -> bool:

@@ -15,7 +15,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from sdc_unit.answer import ctrl_bytes
+from sdc_unit.answer import FLAG_BACKUP, SENT, ctrl_bytes, header_time
 from sdc_unit.blocks import METHODS as VISC_METHODS
 from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
@@ -45,8 +45,10 @@ class ControllerBank:
         if method in VISC_METHODS:
             self.visc = DiscreteVisc(capacity, ViscParams(), ts=step_s, method=method,
                                      dtype=np.float32 if dtype == "float32" else np.float64)
-        self.one_datagram = self.visc is not None and hasattr(self.visc.engine, "meas_to_ctrl")
-        """True where :meth:`meas_to_ctrl` is available (the compiled Tustin engine)."""
+        self.compiled_answers = self.visc is not None and self.visc.answers_datagrams
+        """True where :meth:`answer_datagrams` is available (the compiled Tustin engine)."""
+        self._ctrl_size = {True: ctrl_bytes(True), False: ctrl_bytes(False)}
+        self._ctrl_out = np.empty(capacity * ctrl_bytes(True), dtype=np.uint8)  # answer_datagrams' (grown when needed)
 
     def warm_up(self, steps: int = 50) -> None:
         """Run every code path once on the last slot with a synthetic operating point, then reset
@@ -58,11 +60,12 @@ class ControllerBank:
         for _ in range(steps):
             self.step(np.array([slot]), meas)
         self.track(np.array([slot]), meas)
-        if self.answers_one(slot):
-            out = np.zeros(ctrl_bytes(header=True), dtype=np.uint8)
+        if self.compiled_answers:
+            values = tuple(op[k] for k in MEAS_FIELDS)
             for header in (wire.Header(1, 0, 0), None):
                 data = wire.encode(wire.MsgType.MEAS, {"wt": 101, "seq": 1, "t_sim": 0.0, **op}, header=header)
-                self.meas_to_ctrl(slot, data, header is not None, out, 101, 1, 1, 0, 0, 0)
+                self.answer_datagrams([slot], [data], [values], np.zeros(self.capacity, dtype=np.int64), False,
+                                      header is not None, 0.0)
         self.stop(slot)
 
     def start(self, slot: int, params: dict) -> None:
@@ -148,19 +151,43 @@ class ControllerBank:
             return out, usable
         return self._step_visc(slots, rows, usable, used, all_usable)
 
-    def answers_one(self, slot: int) -> bool:
-        """True if :meth:`meas_to_ctrl` applies to ``slot``: a compiled engine, the slot started and
-        initialised from a first measurement (otherwise :meth:`step`)."""
-        return self.one_datagram and self.started[slot] and self.initialised[slot]
+    def answer_datagrams(self, slots: list[int], datagrams: list[bytes], values: list[tuple], ctrl_seq: np.ndarray,
+                         backup: bool, header: bool, now: float) -> list[bytes | None]:
+        """The compiled way (:attr:`compiled_answers`) of :func:`sdc_unit.round.answer`: advance
+        ``slots[j]`` on the admitted MEAS datagram ``datagrams[j]`` (its MEAS_FIELDS ``values[j]``),
+        in order, and return its CTRL datagram, or None where there is none (not stepped, or not
+        encodable: ``ctrl_seq[slot]`` numbers the answers and is advanced in place for every
+        stepped sample). A started slot's first sample initialises it first, as :meth:`step` does.
+        One kernel call (:func:`sdc_unit.ctrl_jit.meas_to_ctrl`) whatever the number of datagrams."""
+        initialised = self.initialised
+        for slot in slots:
+            if not initialised[slot]:
+                self._initialise_first(slots, values)
+                break
+        n = len(slots)
+        size = self._ctrl_size[header]
+        if n * size > len(self._ctrl_out):  # the buffer for the largest batch so far
+            self._ctrl_out = np.empty(n * size, dtype=np.uint8)
+        sec, nsec = header_time(now) if header else (0, 0)
+        rows = np.array(slots, dtype=np.int64)  # in: the slots; out: the codes
+        self.visc.meas_to_ctrl(rows, np.frombuffer(b"".join(datagrams), dtype=np.uint8), header, self._ctrl_out,
+                               ctrl_seq, FLAG_BACKUP if backup else 0, sec, nsec)
+        codes = rows.tolist()
+        if n == 1:
+            return [self._ctrl_out[:size].tobytes() if codes[0] == SENT else None]
+        sent = self._ctrl_out[:n * size].tobytes()
+        return [sent[j * size:(j + 1) * size] if code == SENT else None for j, code in enumerate(codes)]
 
-    def meas_to_ctrl(self, slot: int, data: bytes, with_header: bool, out: np.ndarray, wt: int, ctrl_seq: int,
-                     meas_seq: int, flag_bits: int, hdr_sec: int, hdr_nsec: int) -> int:
-        """Advance ``slot`` (:meth:`answers_one`) on one admitted MEAS datagram and write its CTRL
-        datagram into ``out``, in one compiled call; returns :mod:`sdc_unit.ctrl_jit`'s code."""
-        code = self.visc.engine.meas_to_ctrl(slot, data, with_header, out, wt, ctrl_seq, meas_seq, flag_bits,
-                                             hdr_sec, hdr_nsec)
-        self.visc.k += 1
-        return code
+    def _initialise_first(self, slots: list[int], values: list[tuple]) -> None:
+        """Initialise each started, not yet initialised slot of ``slots`` from its first row of ``values``."""
+        first: dict[int, tuple] = {}
+        for slot, row in zip(slots, values):
+            if not self.initialised[slot] and self.started[slot]:
+                first.setdefault(slot, row)
+        if first:
+            rows = list(first.values())
+            self._initialise(np.fromiter(first, dtype=np.intp, count=len(first)),
+                             {k: np.array([row[r] for row in rows]) for r, k in enumerate(MEAS_FIELDS)})
 
     def _step_visc(self, slots, rows, usable, used, all_usable):
         visc = self.visc

@@ -176,6 +176,18 @@ class DiscreteVisc:
         self.k += 1
         return result
 
+    @property
+    def answers_datagrams(self) -> bool:
+        """True where the engine steps MEAS datagrams into CTRL datagrams itself (:meth:`meas_to_ctrl`)."""
+        return hasattr(self.engine, "meas_to_ctrl")
+
+    def meas_to_ctrl(self, rows: np.ndarray, data: np.ndarray, with_header: bool, out: np.ndarray,
+                     ctrl_seq: np.ndarray, flag_bits: int, hdr_sec: int, hdr_nsec: int) -> None:
+        """:meth:`advance_slots` on MEAS datagrams, writing the CTRL datagrams (the compiled engine's
+        :meth:`sdc_unit.engines.CompiledEngine.meas_to_ctrl`, see there; :attr:`answers_datagrams`)."""
+        self.engine.meas_to_ctrl(rows, data, with_header, out, ctrl_seq, flag_bits, hdr_sec, hdr_nsec)
+        self.k += 1
+
     def _outputs(self, valid) -> Outputs:
         rows = np.array([self.last[f] for f in OUT_FIELDS])  # one copy of every output
         return Outputs(**dict(zip(OUT_FIELDS, rows)), limited=self.last_limited.copy(),

@@ -24,7 +24,7 @@ from .law_kernels import circular_limit, qsem_current
 if importlib.util.find_spec("numba") is None:  # a declared dependency: without it only engine="blocks"
     jit = ctrl_jit = None
 else:
-    from . import ctrl_jit  # our compiled one-datagram path (it imports tustin_jit)
+    from . import ctrl_jit  # our compiled datagram path (it imports tustin_jit)
     from . import tustin_jit as jit  # our compiled step: a failure to import it is a bug, and raises
 
 ENGINES = ("auto", "jit", "blocks")
@@ -240,14 +240,15 @@ class CompiledEngine:
                               slots, rows, v.active, self._last, v.last_limited, ok, outputs, limited)
         return ok, outputs, limited
 
-    def meas_to_ctrl(self, slot: int, data: bytes, with_header: bool, out: np.ndarray, wt: int, ctrl_seq: int,
-                     meas_seq: int, flag_bits: int, hdr_sec: int, hdr_nsec: int) -> int:
-        """Instance ``slot`` advanced on one admitted MEAS datagram and its CTRL written to ``out``, in
-        one kernel call (:func:`sdc_unit.ctrl_jit.meas_to_ctrl`, whose codes it returns); the same
-        sample as :meth:`advance_slots`."""
+    def meas_to_ctrl(self, rows: np.ndarray, data: np.ndarray, with_header: bool, out: np.ndarray,
+                     ctrl_seq: np.ndarray, flag_bits: int, hdr_sec: int, hdr_nsec: int) -> None:
+        """Instances ``rows`` (int64: their slots, replaced by the codes) advanced on their admitted MEAS
+        datagrams ``data`` (uint8, one after the other) and their CTRL datagrams written to ``out``,
+        in one kernel call (:func:`sdc_unit.ctrl_jit.meas_to_ctrl`); the same sample as
+        :meth:`advance_slots`."""
         v = self.visc
-        self._ready_for_slots()
-        return ctrl_jit.meas_to_ctrl(self._x, self._coef, self.consts, self.flags, self._slot_meas, self._refs,
-                                     self._mem, v.active, self._last, v.last_limited, slot,
-                                     np.frombuffer(data, dtype=np.uint8), with_header, out, wt, ctrl_seq, meas_seq,
-                                     flag_bits, hdr_sec, hdr_nsec)
+        if self.stale or self._slot_meas is None:
+            self._ready_for_slots()
+        ctrl_jit.meas_to_ctrl(self._x, self._coef, self.consts, self.flags, self._slot_meas, self._refs, self._mem,
+                              v.active, self._last, v.last_limited, rows, data, with_header, out, ctrl_seq,
+                              flag_bits, hdr_sec, hdr_nsec)

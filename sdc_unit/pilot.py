@@ -46,8 +46,9 @@ def main(argv: list[str] | None = None) -> int:
     service.bank.warm_up()
     if cfg.realtime_priority:
         raise_priority()
+    sdn_app = (cfg.controller_vip, wire.PORT_CONTROLLER)
     for n, wid in enumerate(int(w) for w in args.serve.split(",")):
-        service._on_request(start_request(wid, n + 1, cfg.header), cfg.controller_vip, service.clock.now())
+        service.serve([(start_request(wid, n + 1, cfg.header).encode(), sdn_app)], service.clock.now())
 
     def stop(*_):
         service.stop()

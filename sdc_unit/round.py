@@ -1,9 +1,12 @@
-"""One SDC round as pure code: a batch of MEAS records in, the batch of CTRL values out.
+"""Stepping and answering without a socket: admitted MEAS in, CTRL datagrams out.
 
-No socket, no clock, no per-turbine bookkeeping. :mod:`sdc_unit.service` admits the datagrams
-before (:mod:`sdc_unit.admission`), numbers the answers and sends them after;
-``benchmarks/sdc_throughput.py`` times exactly these two functions. A round steps every turbine in
-it together (one vectorised call); a turbine appears at most once in a round.
+No socket, no clock, no per-turbine bookkeeping: :class:`sdc_unit.core.SdcCore` admits the
+datagrams before (:mod:`sdc_unit.admission`) and counts and hands out the answers after.
+:func:`answer` is the one way the core steps: on the compiled Tustin engine one kernel call for the
+whole batch (:meth:`sdc_unit.bank.ControllerBank.answer_datagrams`), on any other engine or method
+:func:`answer_rows` -- rounds in which every turbine appears at most once, each stepped together
+(:func:`step_round`: one vectorised call) and packed together (:func:`pack_ctrl`); the answers in
+the order of the datagrams either way. ``benchmarks/sdc_throughput.py`` times the two round functions.
 """
 
 from __future__ import annotations
@@ -14,12 +17,51 @@ from sdvisc import wire
 from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS
 from sdvisc.wire_batch import encode_batch, float_rows
 
+from .answer import FLAG_BACKUP, FLAG_LIMITED, header_time
 from .bank import ControllerBank
 
-FLAG_LIMITED = 1
-"""``CTRL.flags`` bit 0: the current limiter is active."""
-FLAG_BACKUP = 2
-"""``CTRL.flags`` bit 1: the answer comes from a backup SDC."""
+__all__ = ["FLAG_BACKUP", "FLAG_LIMITED", "answer", "answer_rows", "header_time", "pack_ctrl", "step_round"]
+
+
+def answer(bank: ControllerBank, slots: list[int], datagrams: list[bytes], values: list[tuple], ctrl_seq: np.ndarray,
+           backup: bool, header: bool, now: float) -> list[bytes | None]:
+    """The CTRL datagram answering each admitted MEAS datagram (``slots[j]``'s controller advanced on
+    ``datagrams[j]``, whose MEAS_FIELDS are ``values[j]``), in order, or None where there is none
+    (not stepped: no ``seq`` used; not encodable: its ``seq`` used); ``ctrl_seq[slot]``, the last
+    ``seq`` of each slot, advanced in place. Header stamped ``now`` when ``header``, flag bit 1 when
+    ``backup``."""
+    if bank.compiled_answers:
+        return bank.answer_datagrams(slots, datagrams, values, ctrl_seq, backup, header, now)
+    return answer_rows(bank, slots, datagrams, values, ctrl_seq, backup, header, now)
+
+
+def answer_rows(bank: ControllerBank, slots: list[int], datagrams: list[bytes], values: list[tuple],
+                ctrl_seq: np.ndarray, backup: bool, header: bool, now: float) -> list[bytes | None]:
+    """:func:`answer` by numpy rounds (any method and engine; the compiled way's reference)."""
+    answers: list[bytes | None] = [None] * len(slots)
+    rest = list(range(len(slots)))
+    meas_words = wire.packer(wire.MsgType.MEAS, header=header).unpack
+    wt_at = (wire.HEADER_WORDS if header else 0) + 1
+    while rest:
+        rows: list[int] = []
+        later: list[int] = []
+        seen: set[int] = set()
+        for j in rest:  # a turbine's next sample waits for the next round
+            (later if slots[j] in seen else rows).append(j)
+            seen.add(slots[j])
+        words = [meas_words(datagrams[j])[wt_at:wt_at + 2] for j in rows]
+        meas = {"wt": np.array([w[0] for w in words]), "seq": np.array([w[1] for w in words])}
+        matrix = np.array([values[j] for j in rows], dtype=float).T
+        valid, ctrl = step_round(bank, np.array([slots[j] for j in rows], dtype=np.intp), meas, backup, matrix)
+        sent = [j for j, ok in zip(rows, valid.tolist()) if ok]
+        for j in sent:
+            ctrl_seq[slots[j]] += 1
+        if sent:
+            seqs = np.array([ctrl_seq[slots[j]] for j in sent])
+            for j, data in zip(sent, pack_ctrl(ctrl, seqs, now if header else None)):
+                answers[j] = data
+        rest = later
+    return answers
 
 
 def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray, backup: bool = False,
@@ -42,12 +84,6 @@ def step_round(bank: ControllerBank, slots: np.ndarray, meas: np.ndarray, backup
     if backup:
         ctrl["flags"] |= FLAG_BACKUP
     return valid, ctrl
-
-
-def header_time(now: float) -> tuple[int, int]:
-    """The (sec, nsec) words of a CTRL header stamped ``now`` (s)."""
-    sec = int(now)
-    return sec, int((now - sec) * 1e9)
 
 
 def pack_ctrl(ctrl: dict[str, np.ndarray], seqs: np.ndarray, now: float | None) -> list[bytes | None]:

@@ -106,7 +106,7 @@ def service(tmp_path):
 
 def test_the_sdc_records_the_h_a_set_params_request_put_in_effect(service):
     def feed(datagrams):
-        service._serve(service.receive(datagrams, now=1.0), now=1.0)
+        service.serve(datagrams, now=1.0)
 
     feed([(_datagram_request(wire.Command.START_INSTANCE, 101, 1, **_request(3.0)), CONTROLLER)])
     feed([(_datagram_request(wire.Command.SET_PARAMS, 101, 2, **_request(4.0)), CONTROLLER)])

@@ -83,15 +83,14 @@ def service_with(tmp_path, gather_steps: float) -> tuple[SdcService, socket.sock
                     gather_steps=gather_steps, time_scale=1000.0)  # window = 0.9 Ts x 1000 = 0.6 s wall
     svc = SdcService(cfg, sock=sock)
     for wt in (101, 102):
-        svc._serve(svc.receive([(request(wire.Command.START_INSTANCE, wt, req_id=wt), CONTROLLER)], 1.0), 1.0)
+        svc.serve([(request(wire.Command.START_INSTANCE, wt, req_id=wt), CONTROLLER)], 1.0)
     return svc, sock
 
 
 def answered_by(svc: SdcService, poller, now: float) -> list[int]:
-    """One wake-up of the service (drain, then serve what the batch path left): the turbines it
-    answered, whichever path (one datagram at a time or the batch) answered them."""
+    """One wake-up of the service (read, gather, serve): the turbines it answered."""
     before = {w: i.counts["ctrl_tx"] for w, i in svc.instances.items()}
-    svc._serve(svc._drain(now, poller), now)
+    svc.wake(now, poller)
     return sorted(w for w, i in svc.instances.items() if i.counts["ctrl_tx"] > before[w])
 
 
@@ -121,7 +120,7 @@ def drain_with_late(svc: SdcService, sock: socket.socket, now: float, late_wt: i
 def test_two_turbines_measurements_arriving_apart_are_one_round(tmp_path, gather_steps, rounds):
     svc, sock = service_with(tmp_path, gather_steps)
     try:
-        svc._serve(svc.receive([(meas(101, 1), ("127.0.0.1", 9)), (meas(102, 1), ("127.0.0.1", 9))], 1.0), 1.0)
+        svc.serve([(meas(101, 1), ("127.0.0.1", 9)), (meas(102, 1), ("127.0.0.1", 9))], 1.0)
         batches = drain_with_late(svc, sock, 1.0 + TS, 102, seq=2)
         assert batches == ([[101, 102]] if rounds == 1 else [[101], [102]])
         assert svc.gathered == (1 if rounds == 1 else 0) and svc.gather_incomplete == 0
@@ -132,9 +131,9 @@ def test_two_turbines_measurements_arriving_apart_are_one_round(tmp_path, gather
 def test_a_turbine_gone_quiet_does_not_hold_the_others_back(tmp_path):
     svc, sock = service_with(tmp_path, 0.9)
     try:
-        svc._serve(svc.receive([(meas(101, 1), ("127.0.0.1", 9)), (meas(102, 1), ("127.0.0.1", 9))], 1.0), 1.0)
+        svc.serve([(meas(101, 1), ("127.0.0.1", 9)), (meas(102, 1), ("127.0.0.1", 9))], 1.0)
         # 102 has sent nothing for 5 samples (its path is down): 101's MEAS is answered at once
-        svc.receive([(meas(101, k), ("127.0.0.1", 9)) for k in range(2, 7)], 1.0 + 5 * TS)
+        svc.serve([(meas(101, k), ("127.0.0.1", 9)) for k in range(2, 7)], 1.0 + 5 * TS)
         batches = drain_with_late(svc, sock, 1.0 + 6 * TS, 102, seq=7)
         assert batches[0] == [101]
         assert svc.gathered == 0

@@ -1,8 +1,9 @@
-"""The SDC's one-datagram path (sdc_unit.ctrl_jit via ControllerBank.meas_to_ctrl and the service's
-receive) against its reference, the batch path (decode_batch, step_round, pack_ctrl): the same CTRL
-bytes and the same counts for the same datagrams, good and bad. The datagrams are handed to the
-service's ``receive`` and what it sends is recorded (the socket calls are test_sdc_gather.py's and
-test_sdc_service_udp.py's); the reference is the same service with the one-datagram path switched off."""
+"""The SDC's compiled stepping (sdc_unit.ctrl_jit via ControllerBank.answer_datagrams) against its
+reference, the numpy rounds (sdc_unit.round.answer_rows: step_round, pack_ctrl): the same CTRL bytes
+and the same counts for the same datagrams, good and bad, one per wake-up or several. The datagrams
+go through the service's one admission path (sdc_unit.core) and what it sends is recorded (the
+socket calls are test_sdc_gather.py's and test_sdc_service_udp.py's); the reference is the same
+service with the compiled stepping switched off."""
 
 from __future__ import annotations
 
@@ -13,12 +14,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from sdc_unit.answer import NOT_STEPPED, SENT, UNENCODABLE, ctrl_bytes
+from sdc_unit.answer import ctrl_bytes
 from sdc_unit.bank import ControllerBank
-from sdc_unit.round import header_time, pack_ctrl, step_round
+from sdc_unit.round import pack_ctrl, step_round
 from sdc_unit.service import SdcService
 from sdvisc import wire
 from sdvisc.config import SdcConfig
+from sdvisc.vocabulary import MEAS_FIELDS
 from sdvisc.wire_batch import decode_batch, is_type
 from tests.unit.test_sdc_admission import CONTROLLER, TS, request
 
@@ -45,26 +47,26 @@ class Sink:
         return len(data)
 
 
-def make(tmp_path, one_datagram: bool, dtype: str = "float64", role: str = "primary",
+def make(tmp_path, compiled: bool, dtype: str = "float64", role: str = "primary",
          header: bool = True) -> tuple[SdcService, Sink]:
     sink = Sink()
     cfg = SdcConfig(step_s=TS, controller_vip=CONTROLLER[0], capacity=8, out_dir=str(tmp_path), dtype=dtype,
                     role=role, header=header, gather_steps=0.0)
     svc = SdcService(cfg, sock=sink)
-    svc.bank.one_datagram = one_datagram and svc.bank.one_datagram
+    svc.bank.compiled_answers = compiled and svc.bank.compiled_answers
     return svc, sink
 
 
 def run_both(tmp_path, rounds: list[list[bytes]], **kwargs) -> tuple[SdcService, Sink, SdcService, Sink]:
     fast, fast_sink = make(tmp_path, True, **kwargs)
     ref, ref_sink = make(tmp_path, False, **kwargs)
-    assert fast.bank.one_datagram and not ref.bank.one_datagram
+    assert fast.bank.compiled_answers and not ref.bank.compiled_answers
     for k, datagrams in enumerate(rounds):
         now = 100.0 + k * TS
         for svc in (fast, ref):
-            pairs = [(d, CONTROLLER if is_type(d, wire.MsgType.REQUEST, svc.header) else ("127.0.0.1", 40000))
+            pairs = [(d, CONTROLLER if is_type(d, wire.MsgType.REQUEST, svc.core.header) else ("127.0.0.1", 40000))
                      for d in datagrams]
-            svc._serve(svc.receive(pairs, now), now)
+            svc.serve(pairs, now)
     return fast, fast_sink, ref, ref_sink
 
 
@@ -89,8 +91,9 @@ def assert_same(fast: SdcService, fast_sink: Sink, ref: SdcService, ref_sink: Si
     assert fast.rx_stats.as_dict() == ref.rx_stats.as_dict()
     for wid, inst in fast.instances.items():
         other = ref.instances[wid]
-        assert (inst.counts, inst.ctrl_seq, inst.meas_delays_ms, inst.meas_resumed, inst.first_meas_rx_t) == \
-               (other.counts, other.ctrl_seq, other.meas_delays_ms, other.meas_resumed, other.first_meas_rx_t)
+        assert (inst.counts, inst.meas_delays_ms, inst.meas_resumed, inst.first_meas_rx_t) == \
+               (other.counts, other.meas_delays_ms, other.meas_resumed, other.first_meas_rx_t)
+    assert np.array_equal(fast.core.ctrl_seq, ref.core.ctrl_seq)
 
 
 @pytest.mark.parametrize("dtype", ["float64", "float32"])
@@ -143,6 +146,20 @@ def test_without_the_header_too(tmp_path):
     assert fast.instances[102].counts["ctrl_tx"] == 49  # (the first MEAS, which initialises, by the batch path)
 
 
+def test_a_backlog_of_several_samples_per_turbine_in_one_wake_up(tmp_path):
+    rounds = [start_all()] + [[meas(wt, k, k) for k in range(1, 4) for wt in TURBINES]]  # initialised in it
+    rounds += [[meas(wt, k, k) for wt in TURBINES for k in range(j, j + 4)] for j in range(4, 60, 4)]
+    rounds += [[meas(101, 60, 60), request(wire.Command.STOP_INSTANCE, 102, req_id=7), meas(102, 60, 60),
+                meas(205, 60, 60)]]
+    fast, fast_sink, ref, ref_sink = run_both(tmp_path, rounds)
+    assert_same(fast, fast_sink, ref, ref_sink)
+    answered = [(m["wt"], m["meas_seq"]) for m in (wire.decode(d, header=True) for d, _ in fast_sink.sent)
+                if m.type == wire.MsgType.CTRL]
+    assert [s for w, s in answered if w == 101] == list(range(1, 61))  # each sample, in order
+    assert [s for w, s in answered if w == 102] == list(range(1, 60))  # stopped before its 60th
+    assert fast.instances[102].counts["meas_inactive"] == 1
+
+
 # ---------------------------------------------------------------- the kernel on its own
 def started_bank(dtype: str = "float64") -> ControllerBank:
     bank = ControllerBank(4, TS, dtype=dtype)
@@ -153,6 +170,10 @@ def started_bank(dtype: str = "float64") -> ControllerBank:
     return bank
 
 
+def values_of(data: bytes) -> tuple:
+    return tuple(wire.decode(data, header=True)[k] for k in MEAS_FIELDS)
+
+
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(v_d=st.floats(0.2, 1.6), i_d=st.floats(-3.0, 3.0), q=st.floats(-2.0, 2.0), now=st.floats(0.0, 4e9),
        seq=st.integers(1, 2**31 - 1))
@@ -161,18 +182,23 @@ def test_the_kernel_writes_what_wire_encode_writes(v_d, i_d, q, now, seq):
     data = meas(101, 1, 1, v_d=v_d, i_d=i_d, q=q)
     valid, ctrl = step_round(a, np.array([1]), decode_batch([data], wire.MsgType.MEAS, header=True)[0])
     reference = pack_ctrl(ctrl, np.array([seq]), now)[0] if valid[0] else None
-    out = np.zeros(ctrl_bytes(True), dtype=np.uint8)
-    assert b.answers_one(1)
-    code = b.meas_to_ctrl(1, data, True, out, 101, seq, 1, 0, *header_time(now))
-    assert (code == SENT and bytes(out) == reference) or (code != SENT and reference is None)
+    ctrl_seq = np.zeros(4, dtype=np.int64)
+    ctrl_seq[1] = seq - 1
+    assert b.compiled_answers
+    assert b.answer_datagrams([1], [data], [values_of(data)], ctrl_seq, False, True, now) == [reference]
+    assert ctrl_seq[1] == (seq if valid[0] else seq - 1)
 
 
 def test_the_kernel_refuses_what_does_not_fit_and_an_inactive_slot():
     bank = started_bank()
-    out = np.zeros(ctrl_bytes(True), dtype=np.uint8)
     data = meas(101, 1, 1)
-    assert bank.meas_to_ctrl(1, data, True, out, 101, 2**31, 1, 0, 7, 0) == UNENCODABLE  # seq beyond int32
-    assert bank.meas_to_ctrl(1, data, True, out, 101, 2, 1, 0, 2**32, 0) == UNENCODABLE  # header sec
+    ctrl_seq = np.zeros(4, dtype=np.int64)
+    ctrl_seq[1] = 2**31 - 1
+    assert bank.answer_datagrams([1], [data], [values_of(data)], ctrl_seq, False, True, 7.0) == [None]  # seq > int32
+    assert ctrl_seq[1] == 2**31  # used all the same, as pack_ctrl's numbering
+    ctrl_seq[1] = 1
+    assert bank.answer_datagrams([1], [data], [values_of(data)], ctrl_seq, False, True, 2.0**32) == [None]  # header sec
+    assert ctrl_seq[1] == 2
     bank.stop(1)
-    assert not bank.answers_one(1)
-    assert bank.meas_to_ctrl(1, data, True, out, 101, 3, 1, 0, 7, 0) == NOT_STEPPED
+    assert bank.answer_datagrams([1, 1], [data, data], [values_of(data)] * 2, ctrl_seq, False, True, 7.0) == [None, None]
+    assert ctrl_seq[1] == 2  # not stepped: no seq used
