@@ -173,7 +173,7 @@ class ControllerBank:
         self.visc.meas_to_ctrl(rows, np.frombuffer(b"".join(datagrams), dtype=np.uint8), header, self._ctrl_out,
                                ctrl_seq, FLAG_BACKUP if backup else 0, sec, nsec)
         codes = rows.tolist()
-        if n == 1:
+        if n == 1:  # (the same answer, without cutting a joined copy)
             return [self._ctrl_out[:size].tobytes() if codes[0] == SENT else None]
         sent = self._ctrl_out[:n * size].tobytes()
         return [sent[j * size:(j + 1) * size] if code == SENT else None for j, code in enumerate(codes)]

@@ -129,8 +129,9 @@ class SdcCore:
         self.ctrl_seq = np.zeros(self.bank.capacity, dtype=np.int64)
         """The last CTRL ``seq`` of each slot (advanced by the stepping, :func:`sdc_unit.round.answer`)."""
         self.rx_stats = wire.DecodeStats()
-        self._meas_words = wire.packer(wire.MsgType.MEAS, header=self.header).unpack
-        self._meas_size = self._meas_words.__self__.size  # a MEAS: its length and its type word's place and bytes
+        meas_struct = wire.packer(wire.MsgType.MEAS, header=self.header)
+        self._meas_words = meas_struct.unpack
+        self._meas_size = meas_struct.size  # a MEAS: its length and its type word's place and bytes
         self._type_at = (wire.HEADER_WORDS if self.header else 0) * wire.WORD_BYTES
         self._meas_type = int(wire.MsgType.MEAS).to_bytes(wire.WORD_BYTES, "big", signed=True)
         self._wt_at = (wire.HEADER_WORDS if self.header else 0) + 1  # MEAS word of wt (seq, t_sim, values follow)
@@ -153,7 +154,7 @@ class SdcCore:
         size, at, meas_type = self._meas_size, self._type_at, self._meas_type
         for k, (data, addr) in enumerate(datagrams):
             read_t = now if read_at is None else read_at[k]
-            if len(data) == size and data[at:at + 4] == meas_type:  # is_meas, inline
+            if len(data) == size and data[at:at + wire.WORD_BYTES] == meas_type:  # is_meas, inline
                 try:
                     self._admit(data, addr, read_t, admitted)
                 except Exception as exc:  # noqa: BLE001 - one datagram never stops the service
@@ -180,7 +181,8 @@ class SdcCore:
 
     def is_meas(self, data: bytes) -> bool:
         """``data`` looks like a MEAS (length and type word; what :mod:`sdc_unit.gather` counts)."""
-        return len(data) == self._meas_size and data[self._type_at:self._type_at + 4] == self._meas_type
+        at = self._type_at
+        return len(data) == self._meas_size and data[at:at + wire.WORD_BYTES] == self._meas_type
 
     def streaming(self, now: float) -> int:
         """Turbines whose stream is flowing at ``now`` (a usable MEAS read within :data:`STREAMING_STEPS`
