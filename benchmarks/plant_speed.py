@@ -76,9 +76,9 @@ def _service_plant(remote_idx: np.ndarray) -> Plant:
 
 def _rate_applied(p: Plant, idx: np.ndarray, t_sim: float) -> tuple[float, float]:
     """As _rate, with the remote turbines ``idx`` getting new references every step as the plant
-    service's loop (plant/service.py ``run``) does with each step's CTRL packets: ``apply_remote``
-    with an ``intp`` index array and ``float64`` references (``_drain``), ``step()``, then
-    ``measurements()`` (``_send``); the references answer the last measurements (current
+    service's core (``PlantCore.step`` in plant/service_core.py) does with each step's CTRL packets:
+    ``apply_remote`` with an ``intp`` index array and ``float64`` references, ``step()``, then
+    ``measurements()`` for the MEAS; the references answer the last measurements (current
     reference the measured current, voltage reference the measured terminal voltage, unused with
     remote_apply "i_ref"), so the four stay in remote mode (checked at the end). Not included, as in every mode: the service's packet
     decoding and encoding and its recorder's ``outputs()`` every ``record_every`` steps. Returns

@@ -1,6 +1,6 @@
 """What a scenario may ask of each plant model, read from the model classes themselves.
 
-The plant service (plant/service.py ``_apply_event``) applies a timeline ``set`` action as
+The plant service (``PlantCore.apply_event`` in plant/service_core.py) applies a timeline ``set`` action as
 ``getattr(model, f"set_{param}")(value)`` with one number (or, with a ``delta``,
 ``set_<param>(get_<param>() + delta)``), and ``load_step``/``fault``/``scr`` by
 calling ``load_step``/``fault``/``set_scr``. ``sdvisc check`` uses these helpers to reject, before a
