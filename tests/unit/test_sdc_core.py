@@ -175,3 +175,19 @@ def test_a_failed_send_is_moved_from_sent_to_errors(tmp_path):
     assert c.instances[101].counts["ctrl_tx"] == 0 and c.instances[101].counts["ctrl_tx_error"] == 1
     assert c.rejected["reply_tx_error"] == 1
     assert c.summary()["turbines"]["wt1_1"]["ctrl_tx_error"] == 1
+
+
+def test_an_unexpected_error_is_counted_reported_once_and_the_core_goes_on(tmp_path, monkeypatch):
+    c = started(tmp_path, 101)
+
+    def broken(*_args, **_kwargs):
+        raise RuntimeError("boom")
+
+    monkeypatch.setattr(c.bank, "answer_datagrams", broken)
+    first = c.handle([(meas(101, 1), TURBINE)], 11.0)
+    second = c.handle([(meas(101, 2), TURBINE)], 11.1)
+    assert first.sends == second.sends == [] and c.rejected["internal"] == 2
+    assert len(first.log) == 1 and "boom" in first.log[0] and "unexpected error in round" in first.log[0]
+    assert second.log == []  # once per place
+    monkeypatch.undo()
+    assert [m["meas_seq"] for m in ctrls(c.handle([(meas(101, 3), TURBINE)], 11.2))] == [3]
