@@ -94,21 +94,27 @@ def answered_by(svc: SdcService, poller, now: float) -> list[int]:
     return sorted(w for w, i in svc.instances.items() if i.counts["ctrl_tx"] > before[w])
 
 
+LATE_S = 0.2
+"""How much later ``late_wt``'s MEAS is sent: inside the gathering window (0.6 s wall) and long after
+the wake-up for 101's (at 5 ms a busy machine's stall between the send and the wake-up read both at
+once, about one run in three)."""
+
+
 def drain_with_late(svc: SdcService, sock: socket.socket, now: float, late_wt: int, seq: int) -> list[list[int]]:
-    """wt 101's MEAS now, ``late_wt``'s 5 ms later (real loopback UDP, the service's epoll); the
-    turbines answered at each wake-up."""
+    """wt 101's MEAS now, ``late_wt``'s :data:`LATE_S` later (real loopback UDP, the service's epoll);
+    the turbines answered at each wake-up."""
     tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     poller = select.epoll()
     poller.register(sock.fileno(), select.EPOLLIN)
     try:
         dest = sock.getsockname()
         tx.sendto(meas(101, seq), dest)
-        late = threading.Timer(0.005, lambda: tx.sendto(meas(late_wt, seq), dest))
+        late = threading.Timer(LATE_S, lambda: tx.sendto(meas(late_wt, seq), dest))
         late.start()
         poller.poll(1.0)
         batches = [answered_by(svc, poller, now)]
         late.join()
-        if poller.poll(0.5):
+        if poller.poll(2 * LATE_S + 0.5):
             batches.append(answered_by(svc, poller, now))
         return batches
     finally:
