@@ -22,7 +22,6 @@ stdin stops it.
 
 from __future__ import annotations
 
-import argparse
 import ctypes
 import errno
 import json
@@ -39,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from impairment.queue import Impairment, Phase, TimedQueue
-from sdvisc.config import ClockSettings, ConfigError, ImpairNodeConfig, load_config
+from sdvisc.config import ClockSettings, ImpairNodeConfig, service_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.latest_writer import LatestWriter
 from sdvisc.netns import raise_priority
@@ -286,14 +285,8 @@ class Element:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--config", required=True)
-    args = parser.parse_args(argv)
-    try:
-        cfg = load_config(ImpairNodeConfig, args.config)
-    except ConfigError as exc:
-        print(exc, file=sys.stderr)
-        return 2
+    cfg = service_config(ImpairNodeConfig, argv, prog="python -m impairment.element", process="impairment element",
+                         description=__doc__.split("\n")[0])
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     _set_timer_slack()
     element = Element(cfg)

@@ -19,7 +19,6 @@ are written to ``owfcc_stats.json`` when the OWFCC stops.
 
 from __future__ import annotations
 
-import argparse
 import json
 import select
 import signal
@@ -29,7 +28,7 @@ import traceback
 from pathlib import Path
 
 from sdvisc import wire
-from sdvisc.config import ConfigError, OwfccConfig, load_config
+from sdvisc.config import OwfccConfig, service_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.vocabulary import VISC_PARAMS
 
@@ -189,14 +188,7 @@ class Owfcc:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m owfcc.service", description=__doc__)
-    parser.add_argument("--config", required=True)
-    args = parser.parse_args(argv)
-    try:
-        cfg = load_config(OwfccConfig, args.config)
-    except ConfigError as exc:
-        print(f"owfcc: {exc}", file=sys.stderr)
-        return 2
+    cfg = service_config(OwfccConfig, argv, prog="python -m owfcc.service", process="owfcc", description=__doc__)
     owfcc = Owfcc(cfg)
     # the runner stops the OWFCC with SIGTERM: end like Ctrl-C, so the statistics are written
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))

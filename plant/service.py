@@ -21,7 +21,6 @@ live status and event files (:mod:`plant.live`), signals, and ``plant_stats.json
 
 from __future__ import annotations
 
-import argparse
 import json
 import select
 import signal
@@ -35,7 +34,7 @@ from plant.service_core import CTRL_GAP_STEPS, RTT_BINS, Endpoint, Pacing, Plant
 from plant.service_model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
 from plant.service_summary import summarise
 from sdvisc import wire
-from sdvisc.config import ConfigError, PlantConfig, load_config
+from sdvisc.config import PlantConfig, service_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
 from sdvisc.netns import raise_priority, udp_socket_in
 
@@ -140,14 +139,7 @@ class PlantService:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m plant.service", description=__doc__)
-    parser.add_argument("--config", required=True)
-    args = parser.parse_args(argv)
-    try:
-        cfg = load_config(PlantConfig, args.config)
-    except ConfigError as exc:
-        print(f"plant: {exc}", file=sys.stderr)
-        return 2
+    cfg = service_config(PlantConfig, argv, prog="python -m plant.service", process="plant", description=__doc__)
     signal.signal(signal.SIGTERM, lambda *_: (_ for _ in ()).throw(KeyboardInterrupt()))
     service = PlantService(cfg)  # builds the model (loads, or the first time compiles, its code)
     service.scheduling = raise_priority() if cfg.realtime_priority else "default"

@@ -17,7 +17,7 @@ from pathlib import Path
 
 from sdc_unit.service import SdcService
 from sdvisc import wire
-from sdvisc.config import ConfigError, SdcConfig, load_config
+from sdvisc.config import SdcConfig, load_config_or_exit
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 from sdvisc.vocabulary import REQUEST_PARAM_WORDS
@@ -37,11 +37,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--serve", required=True, help="turbine ids, comma-separated")
     parser.add_argument("--ready", type=Path, required=True)
     args = parser.parse_args(argv)
-    try:
-        cfg = load_config(SdcConfig, args.config)
-    except ConfigError as exc:
-        print(f"sdc pilot: {exc}", file=sys.stderr)
-        return 2
+    cfg = load_config_or_exit(SdcConfig, args.config, "sdc pilot")
     service = SdcService(cfg)
     service.bank.warm_up()
     if cfg.realtime_priority:

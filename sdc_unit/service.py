@@ -12,7 +12,6 @@ core hands back, count what could not be sent), the wait for a datagram or for :
 
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import select
@@ -26,7 +25,7 @@ from pathlib import Path
 from sdc_unit.core import Output, SdcCore
 from sdc_unit.gather import gather
 from sdvisc import wire
-from sdvisc.config import ConfigError, SdcConfig, load_config
+from sdvisc.config import SdcConfig, service_config
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.netns import raise_priority
 
@@ -163,14 +162,7 @@ class SdcService:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m sdc_unit.service", description=__doc__)
-    parser.add_argument("--config", required=True)
-    args = parser.parse_args(argv)
-    try:
-        cfg = load_config(SdcConfig, args.config)
-    except ConfigError as exc:
-        print(f"sdc: {exc}", file=sys.stderr)
-        return 2
+    cfg = service_config(SdcConfig, argv, prog="python -m sdc_unit.service", process="sdc", description=__doc__)
     service = SdcService(cfg)
     service.bank.warm_up()  # also loads (or, the first time on a machine, compiles) the Tustin step
     if cfg.realtime_priority:

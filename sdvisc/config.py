@@ -17,7 +17,9 @@ adding only the keys a scenario alone has, and scenarios/configs.py passes them 
 
 from __future__ import annotations
 
+import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Annotated, Literal, TypeVar
 
@@ -327,6 +329,24 @@ def load_config(model: type[C], path: str | Path) -> C:
     except (OSError, json.JSONDecodeError) as exc:
         raise ConfigError(f"{path}: cannot read JSON config: {exc}") from exc
     return parse_config(model, raw, path)
+
+
+def load_config_or_exit(model: type[C], path: str | Path, process: str) -> C:
+    """:func:`load_config` at a process's start: a configuration it cannot use ends it with status 2
+    and the :class:`ConfigError` on stderr, prefixed with ``process`` (the runner shows the log)."""
+    try:
+        return load_config(model, path)
+    except ConfigError as exc:
+        print(f"{process}: {exc}", file=sys.stderr)
+        raise SystemExit(2) from None
+
+
+def service_config(model: type[C], argv: list[str] | None, *, prog: str, process: str, description: str = "") -> C:
+    """A service's configuration from its command line (``--config FILE``, as the runner starts every
+    service), through :func:`load_config_or_exit`."""
+    parser = argparse.ArgumentParser(prog=prog, description=description)
+    parser.add_argument("--config", required=True, help="the JSON configuration the runner wrote")
+    return load_config_or_exit(model, parser.parse_args(argv).config, process)
 
 
 def write_config(config: BaseModel, path: str | Path) -> Path:

@@ -104,7 +104,10 @@ def test_service_answers_every_usable_measurement_once(turbine_socket, tmp_path)
 def test_a_bad_config_is_refused_before_anything_starts(tmp_path, capsys):
     cfg = tmp_path / "sdc1_config.json"
     cfg.write_text(json.dumps({"step_s": 0.00067, "out_dir": str(tmp_path), "standby": "lukewarm", "capcity": 8}))
-    assert service_main(["--config", str(cfg)]) == 2
+    with pytest.raises(SystemExit) as ended:
+        service_main(["--config", str(cfg)])
+    assert ended.value.code == 2
     err = capsys.readouterr().err
+    assert err.startswith("sdc: ")
     assert "standby" in err and "capcity" in err  # every problem named
     assert [p.name for p in tmp_path.iterdir()] == ["sdc1_config.json"]  # no ready file: the runner waits
