@@ -14,7 +14,7 @@ import signal
 import subprocess
 import time
 
-from host_tools import cpu_split
+from host_tools import cpu_split, ovs_revalidation
 
 SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
 BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
@@ -90,13 +90,15 @@ def testbed_links() -> list[str]:
 def leftovers() -> dict:
     """What a run left behind, without removing anything."""
     return {"processes": [p for p, _ in project_processes()], "bridges": testbed_bridges(), "links": testbed_links(),
-            "cpu_split": ["ovs-vswitchd pinned"] if cpu_split.pinned() else []}
+            "cpu_split": ["ovs-vswitchd pinned"] if cpu_split.pinned() else [],
+            "switch_revalidation": ["max-revalidator changed"] if ovs_revalidation.changed() else []}
 
 
 def clean(verbose: bool = False) -> dict:
     """Remove all leftovers; returns what was removed."""
     removed = {"processes": kill_processes(), "bridges": [], "links": [],
-               "cpu_split": ["ovs-vswitchd unpinned"] if cpu_split.restore() else []}
+               "cpu_split": ["ovs-vswitchd unpinned"] if cpu_split.restore() else [],
+               "switch_revalidation": ["max-revalidator restored"] if ovs_revalidation.restore() else []}
     bridges = testbed_bridges()
     if bridges:
         _run("ovs-vsctl", "--timeout=10", *sum((["--", "--if-exists", "del-br", b] for b in bridges), []))

@@ -18,7 +18,7 @@ import threading
 import time
 from pathlib import Path
 
-from host_tools import cleanup, cpu_split
+from host_tools import cleanup, cpu_split, ovs_revalidation
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibration_cache import after_run, choose_time_scale
 from scenarios.feedback import progress_line
@@ -64,6 +64,7 @@ class Run:
         self.calibration: dict | None = None  # what `time_scale: auto` measured (scenarios.calibrate)
         self.switch_ports: dict = {}  # scenarios.switch_ports.use: requested, used, refused
         self.cpu_split: dict = {"applied": False, "why": "off"}  # host_tools.cpu_split.apply
+        self.switch_revalidation: dict = {"applied": False, "why": "off"}  # host_tools.ovs_revalidation.apply
         self.setup_wall_s: dict[str, float] = {}  # wall seconds per set-up phase (build, start, hosts, calibration)
         self.teardown_wall_s: dict[str, float] = {}  # … and per teardown phase (each process's stop, mininet)
         self.set_time_scale(1.0 if self.auto_time_scale else scenario.time_scale)
@@ -121,6 +122,8 @@ class Run:
             self.cpu_split = cpu_split.apply()
             if not self.cpu_split["applied"]:
                 self._say(f"sdvisc: cpu_split not applied: {self.cpu_split['why']}")
+        if sc.switch_revalidation_ms:  # before the calibration: it measures the run's switches
+            self.switch_revalidation = ovs_revalidation.apply(sc.switch_revalidation_ms)
         topo = self.impairments.build_topology(topos[sc.topology.name], sc.topology.params())
         self.desc = describe(topo)
         ports = [_free_port(), _free_port()]
@@ -350,7 +353,7 @@ class Run:
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
             phase("mininet_stop")
-            cleanup.clean()  # also undoes the CPU split (host_tools.cpu_split.restore)
+            cleanup.clean()  # also undoes the CPU split and the switches' revalidation period
             phase("cleanup")
 
 

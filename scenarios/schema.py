@@ -311,6 +311,10 @@ class Scenario(Strict):
     cpu_split: bool = Field(
         False, description="Open vSwitch's threads on a CPU of their own, the run's processes on the others "
                            "(host_tools/cpu_split.py); nothing with one CPU")
+    switch_revalidation_ms: int | None = Field(
+        None, ge=100, le=60_000, description="Open vSwitch's periodic flow revalidation every this many ms while "
+        "the run lasts (null: its own 500 ms); changes of flows and ports still revalidate at once "
+        "(host_tools/ovs_revalidation.py)")
     plant: PlantSpec = Field(default_factory=PlantSpec)
     sdc: SdcSpec = Field(default_factory=SdcSpec)
     sdn: SdnSpec = Field(default_factory=SdnSpec)

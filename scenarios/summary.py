@@ -326,6 +326,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "switch_ports": getattr(run, "switch_ports", None) or None,  # scenarios.switch_ports.use
         "switch_links": run.scenario.switch_links,  # scenarios.switch_links
         "cpu_split": getattr(run, "cpu_split", None),  # host_tools.cpu_split.apply
+        "switch_revalidation": getattr(run, "switch_revalidation", None),  # host_tools.ovs_revalidation.apply
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
     }
