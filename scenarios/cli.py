@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from scenarios.summary import ADVICE_VERDICT
 from scenarios.switch_links import SWITCH_LINK_KINDS
 from scenarios.switch_ports import SWITCH_PORT_TYPES
 
@@ -133,7 +134,7 @@ def _print_result(summary: dict, out: Path) -> None:
             print(f"  {name}: MEAS->CTRL round trip within one sample for {rtt['within_one']:.1%} of answers "
                   f"(median {rtt['median']} samples)")
     if cal and cal.get("next_run_k"):  # auto: the run did not hold; the cache already holds the next k
-        print(f"sdvisc: warning: {summary['advice'].split(': this machine')[0]} (calibrated, did not hold); "
+        print(f"sdvisc: warning: {summary['advice'].split(ADVICE_VERDICT)[0]} (calibrated, did not hold); "
               f"the next run of this shape uses k = {cal['next_run_k']:g} (calibration cache {cal['cache_file']})")
     elif summary.get("advice"):
         print(f"sdvisc: warning: {summary['advice']}")

@@ -164,6 +164,9 @@ def time_section(run) -> dict:
 
 
 LATE_ADVICE_FRACTION = 0.01
+ADVICE_VERDICT = ": this machine could not keep up; "
+"""Between what was late and what to do in :func:`time_advice` (the CLI keeps only the first part
+when the calibration cache already holds the larger k)."""
 
 
 def time_advice(k: float, steps: int, late_steps: int, within_one: dict[str, float] | None = None) -> str | None:
@@ -179,7 +182,7 @@ def time_advice(k: float, steps: int, late_steps: int, within_one: dict[str, flo
         said.append(f"MEAS->CTRL took more than one sample for {1 - slow[worst]:.1%} of {worst}'s answers")
     if not said:
         return None
-    return (f"{'; '.join(said)} at time scale {k:g}: this machine could not keep up; "
+    return (f"{'; '.join(said)} at time scale {k:g}{ADVICE_VERDICT}"
             f"run again with --time-scale {2 * k:g}")
 
 
