@@ -14,6 +14,7 @@ from sdvisc.config import (
     CONTROLLER_VIP,
     CONTROLLER_VMAC,
     AppConfig,
+    IntakeSocket,
     OwfccConfig,
     OwfccOptions,
     PlantConfig,
@@ -36,10 +37,13 @@ def sdcs(sc: Scenario) -> list[tuple[str, int, str]]:
     return [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
 
 
-def app_config(sc: Scenario, desc: dict, out_dir: str, clock: dict | None = None) -> AppConfig:
+def app_config(sc: Scenario, desc: dict, out_dir: str, clock: dict | None = None,
+               intake_pid: int | None = None) -> AppConfig:
+    """``intake_pid``: a process in the intake host's namespace when the run has an intake network."""
     return AppConfig(**(clock or {}), **_options(sc.sdn, SdnOptions), topology=desc, controller_vip=CONTROLLER_VIP,
                      controller_vmac=CONTROLLER_VMAC, turbine_fallback_s=sc.plant.remote_loss_fallback_s,
-                     backup_sdc="sdc2" if sc.sdc.backup else None, state_dir=out_dir)
+                     backup_sdc="sdc2" if sc.sdc.backup else None, state_dir=out_dir,
+                     intake_socket=None if intake_pid is None else IntakeSocket(netns_pid=intake_pid))
 
 
 def sdc_config(sc: Scenario, desc: dict, out_dir: str, sdc_id: int, role: str,

@@ -33,7 +33,7 @@ from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
 from sdvisc.netns import set_link_up
 from topologies import topos
-from topologies.base import CheckedController, TestbedSwitch, default_datapath, describe
+from topologies.base import INTAKE_HOST, CheckedController, TestbedSwitch, default_datapath, describe
 
 SWITCH_CONNECT_TIMEOUT_S = 30.0
 
@@ -125,10 +125,10 @@ class Run:
         if sc.switch_revalidation_ms:  # before the calibration: it measures the run's switches
             self.switch_revalidation = ovs_revalidation.apply(sc.switch_revalidation_ms)
         topo = self.impairments.build_topology(topos[sc.topology.name], sc.topology.params())
+        if sc.sdn.intake_socket(any(s["openflow"] for s in describe(topo)["switches"].values())):
+            topo.add_intake(CONTROLLER_VIP, CONTROLLER_VMAC)
         self.desc = describe(topo)
         ports = [_free_port(), _free_port()]
-        if not self.auto_time_scale:
-            self._start_sdn_apps(ports)
         self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
         self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
@@ -155,8 +155,10 @@ class Run:
             self.impairments.set_clock(self.clock_settings)
             self._say(self.calibration["line"])
             phase("calibration")
-            self._start_sdn_apps(ports)
-            reconnect_controllers(self.net.switches)  # now, not after Open vSwitch's back-off (up to 8 s)
+        # after the hosts exist (the intake socket opens in one's namespace); the switches are told to
+        # connect at once, not after Open vSwitch's back-off (up to 8 s)
+        self._start_sdn_apps(ports)
+        reconnect_controllers(self.net.switches)
         self._wait_switches()
         phase("switches_connect")
 
@@ -174,7 +176,9 @@ class Run:
 
     def _start_sdn_apps(self, ports: list[int]) -> None:
         sc = self.scenario
-        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings), self.out / "sdn_config.json")
+        intake = self.net.get(INTAKE_HOST).pid if "intake_ports" in self.desc else None
+        cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings, intake_pid=intake),
+                                self.out / "sdn_config.json")
         app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
         if sc.sdn.redundancy:
             peer_a, peer_b = _free_port(), _free_port()

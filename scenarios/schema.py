@@ -124,6 +124,17 @@ class SdnSpec(SdnOptions):
 
     redundancy: bool = Field(False, description="run a second SDN app instance as OpenFlow slave that takes over")
 
+    @model_validator(mode="after")
+    def _one_intake_socket(self):
+        if self.redundancy and self.intake == "socket":
+            raise ValueError("intake: socket serves one SDN app; a redundant pair needs packet_in (or auto), "
+                             "so that the slave sees what the master sees")
+        return self
+
+    def intake_socket(self, has_openflow_switch: bool) -> bool:
+        """True if the run forwards the controller's datagrams to the app's socket."""
+        return self.intake != "packet_in" and not self.redundancy and has_openflow_switch
+
 
 class CaptureSpec(Strict):
     pcap: bool = Field(False, description="capture on the hosts below into DIR/capture_<host>.pcap")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import select
 import socket
 import threading
 from collections import Counter
@@ -26,8 +27,10 @@ from sdn_app.flows import Barrier
 from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdn_app.redundancy import RoleState
+from sdvisc import wire
 from sdvisc.config import AppConfig, load_config
 from sdvisc.latest_writer import LatestWriter
+from sdvisc.netns import udp_socket_in
 
 CONFIG_ENV = "SDVISC_SDN_CONFIG"
 ROLE_ENV = "SDVISC_SDN_ROLE"  # master | slave | equal (default: equal, a single controller)
@@ -35,6 +38,8 @@ INSTANCE_ENV = "SDVISC_SDN_INSTANCE"  # 1 or 2: file names and event source
 PEER_ENV = "SDVISC_SDN_PEER"  # "listen_port:send_port" on 127.0.0.1 for the peer heartbeat
 STOPPING = False  # set by the launcher's SIGTERM handler: no more decisions while shutting down
 PUBLISH_S = 0.1
+INTAKE_BATCH = 256  # datagrams taken from the intake socket per decision at most
+INTAKE_POLL_MS = 100  # the intake thread looks at STOPPING this often while nothing arrives
 
 
 class SdviscApp(app_manager.OSKenApp):
@@ -77,6 +82,12 @@ class SdviscApp(app_manager.OSKenApp):
         # clock read inside it (a tick preempted into the middle of a port-status handling once saw
         # a healed turbine half-restored and declared a second no_path for it)
         self._lock = threading.RLock()
+        self.intake_counts: Counter = Counter()
+        self._intake = None
+        if self.config.intake_socket is not None:  # AKs, heartbeats, requests and replies come here, not as packet-ins
+            self._intake = udp_socket_in(self.config.intake_socket.netns_pid, self.config.controller_vip,
+                                         wire.PORT_CONTROLLER, rcvbuf=1 << 22)
+            self._intake_thread = hub.spawn(self._intake_loop)
         self._timer = hub.spawn(self._timer_loop)  # ends when STOPPING is set
 
     # ------------------------------------------------------------------ plumbing
@@ -121,7 +132,7 @@ class SdviscApp(app_manager.OSKenApp):
         with self._lock if not final else contextlib.nullcontext():  # a consistent snapshot; encoding needs no lock
             state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
                      "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
-                     "openflow": dict(self.of_counts), "wire": self.logic.wire_stats.as_dict(),
+                     "openflow": dict(self.of_counts), "intake": dict(self.intake_counts), "wire": self.logic.wire_stats.as_dict(),
                      "t_wall": self.clock.now()}
         layout = {"indent": 1} if final else {"separators": (",", ":")}
         self._state_writer.put(json.dumps(state, sort_keys=True, **layout).encode())
@@ -164,6 +175,25 @@ class SdviscApp(app_manager.OSKenApp):
             ps = (1 << ofp.OFPPR_ADD) | (1 << ofp.OFPPR_DELETE) | (1 << ofp.OFPPR_MODIFY)
             dp.send_msg(parser.OFPSetAsync(dp, [pin, pin], [ps, ps], [0, 0]))
             self.of_counts["tx_OFPSetAsync"] += 1
+
+    def _intake_loop(self) -> None:
+        """The intake socket: every datagram waiting at a wake-up is one decision of the controller."""
+        sock, poller = self._intake, select.poll()
+        poller.register(sock, select.POLLIN)
+        while not STOPPING:
+            if not poller.poll(INTAKE_POLL_MS):
+                continue
+            batch = []
+            while len(batch) < INTAKE_BATCH:
+                try:
+                    data, (src_ip, _port) = sock.recvfrom(2048)
+                except (BlockingIOError, InterruptedError):
+                    break
+                batch.append((src_ip, data))
+            if batch:
+                self.intake_counts["rx"] += len(batch)
+                self.intake_counts["wakeups"] += 1
+                self._decide(self.logic.delivered, batch)
 
     def _timer_loop(self) -> None:
         while not STOPPING:

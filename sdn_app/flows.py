@@ -15,6 +15,7 @@ IP_PROTO_UDP = 17
 PRIORITY_TABLE_MISS = 0
 PRIORITY_DROP_NOISE = 10
 PRIORITY_TO_CONTROLLER = 50
+PRIORITY_INTAKE = 60
 PRIORITY_PATH = 100
 
 COOKIE_BASE = 0x5D000000  # flows of a turbine's path carry COOKIE_BASE + turbine id
@@ -105,6 +106,18 @@ def base_flows(dpid: int, controller_vip: str) -> list[FlowAdd]:
         FlowAdd(dpid, PRIORITY_DROP_NOISE, {"eth_type": ETH_TYPE_IPV6}, ()),
         FlowAdd(dpid, PRIORITY_TO_CONTROLLER, {"eth_type": ETH_TYPE_IPV4, "ipv4_dst": controller_vip}, to_controller),
     ]
+
+
+def intake_flows(dpid: int, intake_port: int, senders: list[tuple[int, str, str]], controller_vip: str,
+                 controller_udp_port: int) -> list[FlowAdd]:
+    """Datagrams for the controller from the hosts on this switch, each matched on its own port,
+    MAC and IP, out of ``intake_port`` to the controller's socket instead of a packet-in (``senders``:
+    (port, mac, ip) of each host). Anything else for the controller (a wrong port, a forged address)
+    still meets :func:`base_flows`' packet-in rule and is counted and dropped there."""
+    return [FlowAdd(dpid, PRIORITY_INTAKE, {"in_port": port, "eth_src": mac, "eth_type": ETH_TYPE_IPV4, "ipv4_src": ip,
+                                            "ipv4_dst": controller_vip, "ip_proto": IP_PROTO_UDP,
+                                            "udp_dst": controller_udp_port}, (Output(intake_port),))
+            for port, mac, ip in senders]
 
 
 def udp_match(src_ip: str, dst_ip: str) -> dict:

@@ -13,7 +13,8 @@ takes ``now`` (seconds) and returns a list of :mod:`sdn_app.flows` actions. The 
 * :mod:`sdn_app.recovery` — ``DR_i = ViSC_WT_i ∧ ¬AK_i`` after the hold (:mod:`sdn_app.dr`):
   reroute; partitions reported once and healed;
 * :mod:`sdn_app.sdc_guard` — SDC liveness (a detector, :mod:`sdn_app.liveness`) and failover;
-* here: dispatch of packet-ins (strict decoding, access control, every drop counted by reason),
+* here: dispatch of packet-ins and of the intake socket's datagrams (strict decoding, access
+  control, every drop counted by reason),
   port status (links, plug-and-play on turbine ports), switch connections, the timer and AK.
 """
 
@@ -50,6 +51,10 @@ class Controller:
             wire.MsgType.REPLY: self._on_reply,
             wire.MsgType.HEARTBEAT: self.guard.on_heartbeat,
         }
+        # the intake socket's senders by IP: (MAC, OpenFlow attachment), as the switches' intake flows check them
+        self._intake_senders = ({h.ip: (h.mac, (self.dpids[h.switch], h.port)) for h in config.topology.hosts.values()
+                                 if h.switch in config.topology.intake_ports and h.switch in self.dpids}
+                                if config.intake_socket is not None else {})
         self.state.event(now, "app_start", turbines=len(self.tables.t1), switches=len(self.dpids))
 
     # ------------------------------------------------------------------ the shared state, read-only views
@@ -78,7 +83,16 @@ class Controller:
         """A switch connected: base flows, plus the flows of any active path through it."""
         self.connected.add(dpid)
         self.state.event(now, "switch_up", switch=self.state.switch_by_dpid.get(dpid, hex(dpid)))
-        return list(fl.base_flows(dpid, self.config.controller_vip)) + self.routing.flows_on(dpid)
+        return list(fl.base_flows(dpid, self.config.controller_vip)) + self._intake_flows(dpid) + self.routing.flows_on(dpid)
+
+    def _intake_flows(self, dpid: int) -> list:
+        """With an intake socket: the flows that forward this switch's hosts' datagrams to it."""
+        switch = self.state.switch_by_dpid.get(dpid)
+        intake_port = self.config.topology.intake_ports.get(switch)
+        if not self._intake_senders or intake_port is None:
+            return []
+        senders = [(where[1], mac, ip) for ip, (mac, where) in self._intake_senders.items() if where[0] == dpid]
+        return fl.intake_flows(dpid, intake_port, senders, self.config.controller_vip, wire.PORT_CONTROLLER)
 
     def port_status(self, dpid: int, port: int, up: bool, now: float) -> list:
         """A port changed state: update the link set, T3's second digit, and act (recovery)."""
@@ -192,7 +206,29 @@ class Controller:
             counters["drop_no_flow"] += 1
             counters[f"drop_no_flow:{frame.ip_src}->{frame.ip_dst}"] += 1
             return []
-        msg = self.wire_stats.decode(frame.payload, header=self.config.header)
+        return self._dispatch(frame.payload, frame.ip_src, frame.eth_src, now, (dpid, in_port))
+
+    def delivered(self, datagrams: list[tuple[str, bytes]], now: float) -> list:
+        """Datagrams ``(source IP, payload)`` that reached the controller's intake socket in one
+        wake-up. The switch that forwarded each one matched its sender's port, MAC and IP
+        (:func:`sdn_app.flows.intake_flows`), so it comes from the registered host of that IP, at
+        that host's port; a source without such a flow is counted and dropped."""
+        actions: list = []
+        senders, counters = self._intake_senders, self.counters
+        for src_ip, payload in datagrams:
+            counters["intake_rx"] += 1
+            sender = senders.get(src_ip)
+            if sender is None:
+                counters["drop_intake_unknown_source"] += 1
+                continue
+            actions += self._dispatch(payload, src_ip, sender[0], now, sender[1])
+        return actions
+
+    def _dispatch(self, payload: bytes, src_ip: str, src_mac: str, now: float, where: tuple[int, int]) -> list:
+        """One datagram for the controller, from a packet-in or the intake socket: strict decoding,
+        its handler, every drop counted."""
+        counters = self.counters
+        msg = self.wire_stats.decode(payload, header=self.config.header)
         if msg is None:
             counters["drop_malformed"] += 1
             return []
@@ -200,9 +236,9 @@ class Controller:
         if handler is None:
             counters["drop_unexpected_type"] += 1
             return []
-        self.guard.note_packet_in(now)
+        self.guard.note_arrival(now)
         try:
-            return handler(msg, frame.ip_src, frame.eth_src, now, (dpid, in_port))
+            return handler(msg, src_ip, src_mac, now, where)
         except (ValueError, KeyError, TypeError) as exc:  # one bad message never stops the app
             counters["drop_bad_value"] += 1
             self.state.event(now, "drop_bad_value", msg_type=msg.type.name, error=str(exc)[:200])

@@ -20,7 +20,7 @@ SETTLE_S = 0.2  # no SDC-death decision this soon after our own flow changes (un
 CORROBORATE_S = 0.020  # every served turbine's loss must have lasted this long to confirm an SDC death
 HEARTBEAT_PERIOD_S = 0.010  # the SDC's nominal heartbeat period (sdc_unit.service.HEARTBEAT_S)
 IDLE_SDC_DEAD_FACTOR = 3.0  # an SDC serving no turbine (no corroboration possible): this many sdc_dead_s
-STALL_S = 0.015  # no packet-in at all from anyone for this long: our own (or the switches') stall
+STALL_S = 0.015  # no datagram at all (packet-in or intake socket) from anyone for this long: our own (or the switches') stall
 MAX_STALL_S = 0.5  # ... but a silence this long is no stall any more (nothing is left that talks to us)
 
 
@@ -33,8 +33,8 @@ class SdcGuard:
         self.messenger = messenger
         self.liveness = SdcLiveness(HEARTBEAT_PERIOD_S, state.config.sdc_dead_s)
         self.suspects: set[str] = set()  # silent SDCs not (yet) confirmed dead: one event per episode
-        self.t_last_packet_in = float("-inf")
-        self.t_resumed = float("-inf")  # end of the last stall: a packet-in after none for STALL_S
+        self.t_last_arrival = float("-inf")
+        self.t_resumed = float("-inf")  # end of the last stall: a datagram after none for STALL_S
         hosts = state.config.topology.hosts
         self.sdc_by_addr = {(hosts[n].ip, hosts[n].mac): n for n in (state.config.primary_sdc,
                                                                     state.config.backup_sdc) if n in hosts}
@@ -44,16 +44,16 @@ class SdcGuard:
         return self.liveness.dead
 
     # ------------------------------------------------------------------ the controller's own view
-    def note_packet_in(self, now: float) -> None:
+    def note_arrival(self, now: float) -> None:
         """Something reached the controller at ``now``."""
-        if now - self.t_last_packet_in > STALL_S:
+        if now - self.t_last_arrival > STALL_S:
             self.t_resumed = now
-        self.t_last_packet_in = max(self.t_last_packet_in, now)
+        self.t_last_arrival = max(self.t_last_arrival, now)
 
     def stalled(self, now: float) -> bool:
         """Nothing at all has reached the controller for a while: its own stall or the switches'
         (a silence then says nothing about any one sender)."""
-        return STALL_S < now - self.t_last_packet_in < MAX_STALL_S
+        return STALL_S < now - self.t_last_arrival < MAX_STALL_S
 
     # ------------------------------------------------------------------ heartbeats
     def on_heartbeat(self, msg: wire.Message, src_ip: str, src_mac: str, now: float, where=None) -> list:

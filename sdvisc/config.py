@@ -29,7 +29,8 @@ from sdvisc.clock import Clock
 from sdvisc.vocabulary import MAX_ONSHORE_UNITS, TURBINE_PATTERN
 
 CONTROLLER_VIP = "10.0.0.254"
-"""The SDN application's virtual IP address (packets to it reach the controller as packet-ins)."""
+"""The SDN application's virtual IP address (packets to it reach the controller's intake socket, or
+the controller as packet-ins)."""
 CONTROLLER_VMAC = "02:00:00:00:00:fe"
 """The SDN application's virtual MAC address."""
 
@@ -241,6 +242,8 @@ class TopologyInfo(_Config):
     switches: dict[str, SwitchInfo]
     hosts: dict[str, HostInfo]
     links: list[LinkInfo]
+    intake_ports: dict[str, int] = Field(default_factory=dict, description=(
+        "OpenFlow switch -> its port toward the controller's intake network (topologies.base.add_intake)"))
 
 
 class SdnOptions(_Config):
@@ -261,6 +264,17 @@ class SdnOptions(_Config):
     failover: bool = Field(True, description="fail turbines over to the backup SDC when the primary dies")
     sdc_dead_s: float = Field(0.030, gt=0, le=1.0, description="an SDC is dead after this long without a heartbeat, s")
     mirror_to_backup: bool = Field(True, description="copy measurements to the backup SDC (warm standby)")
+    intake: Literal["auto", "socket", "packet_in"] = Field("auto", description=(
+        "how AKs, heartbeats, requests and replies reach the app: socket (the switches forward them to the "
+        "app's UDP socket on an intake network, batched per wake-up), packet_in (OpenFlow packet-ins), auto "
+        "(socket unless a redundant pair runs: its slave must see what the master sees)"))
+
+
+class IntakeSocket(_Config):
+    """Where the SDN app's intake socket is opened (bound to the controller's IP and UDP port)."""
+
+    netns_pid: int | None = Field(None, description="a process in the intake host's network namespace "
+                                  "(None: the app's own)")
 
 
 class AppConfig(ClockSettings, ControllerAddress, SdnOptions):
@@ -273,6 +287,8 @@ class AppConfig(ClockSettings, ControllerAddress, SdnOptions):
     backup_sdc: str | None = "sdc2"
     turbine_fallback_s: FallbackSeconds
     state_dir: str | None = Field(None, description="where tables.json, stats.json and events.jsonl are written")
+    intake_socket: IntakeSocket | None = Field(None, description=(
+        "the intake socket, when the switches forward to one (intake resolved to socket by the runner)"))
 
 
 class LinkEnds(_Config):

@@ -3,14 +3,18 @@
 Addressing is stable so that scenarios, tables and captures can name things:
 turbine ``wt<c>_<n>`` has IP ``10.0.<c>.<n>/16`` and MAC ``02:00:00:00:<c>:<n>`` (hex);
 service hosts (``owfcc``, ``sdc1``, ``sdc2``) live in ``10.0.0.0/24``. The SDN application
-answers on a virtual IP (:data:`sdvisc.config.CONTROLLER_VIP`) that no host owns; hosts reach it through a
-static ARP entry, and every switch sends packets for it to the controller.
+answers on a virtual IP (:data:`sdvisc.config.CONTROLLER_VIP`); hosts reach it through a static ARP
+entry. Every switch sends packets for it to the controller as packet-ins, or — with an *intake
+network* (:meth:`TestbedTopo.add_intake`) — forwards its own hosts' datagrams for it over a patch
+port to the bridge ``sctl`` and the host ``ctl``, which owns the virtual IP and MAC and in whose
+namespace the SDN app holds a UDP socket (the data network's view of a lab's controller PC).
 """
 
 from __future__ import annotations
 
 import os
 
+from mininet.link import OVSLink
 from mininet.node import Host, OVSBridge, OVSSwitch, RemoteController
 from mininet.topo import Topo
 from mininet.util import naturalSeq
@@ -82,6 +86,48 @@ class CheckedController(RemoteController):
         self.terminate()
 
 
+INTAKE_HOST = "ctl"
+"""The intake network's host: it owns the controller's virtual IP and MAC."""
+INTAKE_BRIDGE = "sctl"
+"""The intake network's bridge: a patch port to every OpenFlow switch and one port to :data:`INTAKE_HOST`."""
+INTAKE_BRIDGE_DPID = 0x5DC7000000000001
+INTAKE_HOST_PORT = 1
+
+
+class IntakeBridge(OVSSwitch):
+    """The intake network's bridge: no controller, and flows of its own (:func:`intake_bridge_flows`)
+    that send every frame from a switch to the intake host and drop whatever the host sends."""
+
+    def __init__(self, name, **params):
+        params.setdefault("datapath", default_datapath())
+        params.setdefault("protocols", "OpenFlow13")
+        params.setdefault("failMode", "secure")
+        super().__init__(name, **params)
+
+    def start(self, controllers):
+        super().start([])
+        if not self.batch:  # (else the bridge exists only after batchStartup)
+            self.add_flows()
+
+    @classmethod
+    def batchStartup(cls, switches, **kwargs):  # noqa: N802 - Mininet's name
+        started = super().batchStartup(switches, **kwargs)
+        for switch in started:
+            switch.add_flows()
+        return started
+
+    def add_flows(self) -> None:
+        for flow in intake_bridge_flows():
+            out = self.cmd("ovs-ofctl", "-O", "OpenFlow13", "add-flow", self.name, flow)
+            if out.strip():
+                raise RuntimeError(f"{self.name}: ovs-ofctl add-flow {flow}: {out.strip()}")
+
+
+def intake_bridge_flows() -> list[str]:
+    """ovs-ofctl flows of :class:`IntakeBridge`: one way only, from the switches to the host."""
+    return [f"priority=10,in_port={INTAKE_HOST_PORT},actions=drop", f"priority=1,actions=output:{INTAKE_HOST_PORT}"]
+
+
 class ImpairmentHost(Host):
     """The host of an impairment element (:mod:`impairment.element`): no IP address, no IPv6 and
     no ARP entries of its own, so that it never sends a frame of its own into the link."""
@@ -143,26 +189,43 @@ class TestbedTopo(Topo):
         cls = TestbedSwitch if openflow else L2Switch
         return self.addSwitch(name, cls=cls, dpid=f"{dpid:016x}", openflow=openflow)
 
+    def add_intake(self, ip: str, mac: str) -> None:
+        """The intake network: host :data:`INTAKE_HOST` (``ip``, ``mac``: the controller's virtual
+        addresses) on bridge :data:`INTAKE_BRIDGE`, patched to every OpenFlow switch. Not part of
+        the farm's network: :func:`describe` lists it only as ``intake_ports``, so no path uses it."""
+        self.addHost(INTAKE_HOST, ip=f"{ip}/{NET_PREFIX_LEN}", mac=mac, role="intake")
+        self.addSwitch(INTAKE_BRIDGE, cls=IntakeBridge, dpid=f"{INTAKE_BRIDGE_DPID:016x}", role="intake")
+        Topo.addLink(self, INTAKE_HOST, INTAKE_BRIDGE, port2=INTAKE_HOST_PORT)
+        for name in [n for n in self.switches() if self.nodeInfo(n).get("openflow", True) and n != INTAKE_BRIDGE]:
+            Topo.addLink(self, name, INTAKE_BRIDGE, cls=OVSLink)  # a patch port: no device, no syscall
+
 
 def describe(topo: Topo) -> dict:
     """A static, JSON-ready description of ``topo`` (the SDN app's view of the wiring).
 
     Returns ``{"switches": {name: {"dpid", "openflow"}}, "hosts": {name: {"ip", "mac", "role",
     "switch", "port", ...}}, "links": [{"a", "a_port", "b", "b_port"}]}`` where ``links`` lists
-    switch-to-switch links only and host entries name the switch port they hang on. A link with
+    switch-to-switch links only and host entries name the switch port they hang on; with an intake
+    network also ``"intake_ports": {switch: port toward it}`` (its bridge and host are left out). A link with
     an impairment element is one link ``a–b`` between the switches' ports toward the element
     (plus ``"element": name``); the element is not a host of the description.
     """
     switches = {}
     for name in topo.switches():
         info = topo.nodeInfo(name)
-        switches[name] = {"dpid": int(info["dpid"], 16), "openflow": bool(info.get("openflow", True))}
+        if info.get("role") != "intake":
+            switches[name] = {"dpid": int(info["dpid"], 16), "openflow": bool(info.get("openflow", True))}
     hosts = {}
     links = []
+    intake_ports = {}
     element_ports: dict[str, dict[str, int]] = {}  # element -> {switch: the switch's port toward it}
     for a, b, info in topo.links(sort=True, withKeys=False, withInfo=True):
         a, b = info["node1"], info["node2"]
         pa, pb = info["port1"], info["port2"]
+        if INTAKE_BRIDGE in (a, b):
+            if a in switches or b in switches:
+                intake_ports.update({a: pa} if a in switches else {b: pb})
+            continue
         if a in switches and b in switches:
             links.append({"a": a, "a_port": pa, "b": b, "b_port": pb})
             continue
@@ -187,4 +250,7 @@ def describe(topo: Topo) -> dict:
         a, b = info["a"], info["b"]
         links.append({"a": a, "a_port": ports[a], "b": b, "b_port": ports[b], "element": element})
     links.sort(key=lambda link: naturalSeq((link["a"], link["b"])))  # the order without elements
-    return {"switches": switches, "hosts": hosts, "links": links}
+    desc = {"switches": switches, "hosts": hosts, "links": links}
+    if intake_ports:
+        desc["intake_ports"] = dict(sorted(intake_ports.items()))
+    return desc
