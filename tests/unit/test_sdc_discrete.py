@@ -41,15 +41,17 @@ class Loop:
         return Measurements.from_complex(self.vg + ZG * self.i, self.i)
 
     def plant(self, vconv):
-        w0, lf, rf = self.p.omega0, self.p.l_f, self.p.r_f
-        h = self.ts / 8
-        for _ in range(8):
-            f = lambda i: (vconv - (self.vg + ZG * i) - (rf + 1j * lf) * i) * w0 / lf  # noqa: E731
-            k1 = f(self.i)
-            k2 = f(self.i + h / 2 * k1)
-            k3 = f(self.i + h / 2 * k2)
-            k4 = f(self.i + h * k3)
-            self.i = self.i + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        """Eight classical RK4 steps over Ts of (l_f/omega0) di/dt = vconv - (vg + z_g i) - (r_f + j l_f) i,
+        vconv and vg held. The equation is linear with a constant input, so one RK4 step of h is the
+        affine map i -> i_ss + R(z) (i - i_ss) (RK4 keeps the equilibrium i_ss = (vconv - vg)/z_t and
+        multiplies the distance to it by its stability polynomial R(z) = 1 + z + z^2/2 + z^3/6 + z^4/24,
+        z = -h omega0 z_t/l_f, z_t = z_g + r_f + j l_f): the eight steps are R(z)^8, applied at once.
+        The same numbers as the step-by-step loop to rounding (the float32 test's worst deviations
+        agree to 6 digits), without its 32 array evaluations per sample."""
+        zt = ZG + self.p.r_f + 1j * self.p.l_f
+        z = -(self.ts / 8) * self.p.omega0 * zt / self.p.l_f
+        i_ss = (vconv - self.vg) / zt
+        self.i = i_ss + (1 + z + z**2 / 2 + z**3 / 6 + z**4 / 24) ** 8 * (self.i - i_ss)
 
     def step(self, meas=None):
         o = self.c.step(meas if meas is not None else self.meas())
