@@ -229,7 +229,8 @@ class PlantCore:
     # ------------------------------------------------------------------ step
     def step(self, now: float) -> list[tuple[Endpoint, bytes, tuple[str, int]]]:
         """Apply the newest CTRL received per streaming turbine, advance the model one step, and
-        return the datagrams due, in order: (endpoint, datagram, destination address)."""
+        return the datagrams due, in order — every MEAS, then the AKs due: (endpoint, datagram,
+        destination address)."""
         newest = self._newest
         if newest:
             index = np.fromiter(newest, dtype=np.intp, count=len(newest))
@@ -243,6 +244,7 @@ class PlantCore:
 
     def _outgoing(self, now: float) -> list[tuple[Endpoint, bytes, tuple[str, int]]]:
         out: list = []
+        aks: list = []  # after every MEAS: a step that reports AKs does not hold up the last turbines' MEAS
         meas = self.model.measurements()
         columns = [meas[key] for key in MEAS_FIELDS]
         t_sim = self.k * self.step_s
@@ -270,8 +272,8 @@ class PlantCore:
                         and now - ep.last_ctrl_wall >= loss_after_s)
             if send_ak or ak_now != ep.last_ak_sent or loss_due:  # periodic, on every change, at the hold
                 ep.loss_reported = ep.loss_reported or loss_due
-                out.append((ep, self._ak(ep, ak_now, now, sec, nsec), self.ak_addr))
-        return out
+                aks.append((ep, self._ak(ep, ak_now, now, sec, nsec), self.ak_addr))
+        return out + aks
 
     def _ak(self, ep: Endpoint, ak: int, now: float, sec: int, nsec: int) -> bytes:
         ep.ak_seq += 1

@@ -199,3 +199,19 @@ def test_pacing_records_late_steps_and_stalls():
         pacing.note(k, late)
     assert pacing.late_steps == 4 and pacing.max_lateness_s == 0.03
     assert pacing.stalls == [[0.003, 20.0, 4], [0.006, 30.0, 6]]
+
+
+def test_a_step_that_reports_aks_sends_every_meas_first():
+    """50 AKs encoded between the MEAS of a step held up the last turbines' MEAS (and so their CTRL)."""
+    core = make_core()
+    for ep in core.endpoints:
+        core.receive(ep, request(wire.Command.STREAM_START, wid=ep.wid), (VIP, wire.PORT_CONTROLLER), 0.0)
+    kinds = []
+    for k in range(1, 12):  # an AK period (10 steps) and more
+        kinds.append([msg.type for _, msg, _ in decoded(core.step(k * STEP))])
+    with_aks = [step for step in kinds if wire.MsgType.AK in step]
+    assert with_aks, "an AK period passed"
+    for step in with_aks:
+        first_ak = step.index(wire.MsgType.AK)
+        assert step[:first_ak] == [wire.MsgType.MEAS] * len(core.endpoints)
+        assert set(step[first_ak:]) == {wire.MsgType.AK}
