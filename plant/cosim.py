@@ -12,6 +12,8 @@ after ``delay_samples`` samples -- 0 = the ideal sampled controller, 1 = one sam
 current loop instead. The plant may step ``plant_steps_per_sample`` times per sample (the SDC's
 output held in between: a sampled controller on a finer plant step). A run records the converter
 trips of the ViSC turbines and stops, padding with NaN, when the plant's values stop being finite.
+A step's row is read from ``Plant.recorded()`` (and the hd_visc law's outputs), not ``outputs()``: the
+same values without its full node-voltage solve (docs/plant.md, the recorder of 2026-12-02).
 
 ``compare`` returns, per quantity, the RMS deviation from the HD run and that RMS relative to the
 range of the HD trace (the 1 % criterion of the issue).
@@ -93,12 +95,14 @@ def run_hd(case: FaultCase = FaultCase(), visc_params: ViscParams | None = None)
     if visc_params is not None:
         plant.set_visc_params(visc_params)
     plant.set_mode(idx, "hd_visc")
+    pos = _law_positions(plant, idx)
     rows = []
     for k in range(case.n_steps):
         _events(plant, k, case)
         plant.step()
-        out = plant.outputs()
-        rows.append((out["v_pcc"], out["q_wt"][idx], out["visc_delta"][idx], out["visc_e"][idx]))
+        rec = plant.recorded()
+        delta, e_mag = _law_traces(plant, pos)
+        rows.append((rec["v_pcc"], rec["q"][idx], delta, e_mag))
         if not np.isfinite(rows[-1][0]):
             break
     return _stack(rows, case)
@@ -130,8 +134,8 @@ def run_sdc(case: FaultCase = FaultCase(), method: str = "tustin", dtype=np.floa
             queue.append((o.v_ref_d, o.v_ref_q, o.i_ref_d, o.i_ref_q))
             plant.apply_remote(idx, *queue.pop(0))
         plant.step()
-        out = plant.outputs()
-        rows.append((out["v_pcc"], out["q_wt"][idx], o.delta, o.e_mag))
+        rec = plant.recorded()
+        rows.append((rec["v_pcc"], rec["q"][idx], o.delta, o.e_mag))
         if math.isnan(trip_t) and plant.trips[idx].any():
             trip_t = (k + 1) * case.plant_step_s
         if not np.isfinite(rows[-1][0]):
@@ -140,6 +144,24 @@ def run_sdc(case: FaultCase = FaultCase(), method: str = "tustin", dtype=np.floa
     res["trips"] = plant.trips[idx].copy()
     res["trip_t"] = trip_t
     return res
+
+
+def _law_positions(plant, idx) -> np.ndarray:
+    """Where the hd_visc turbines ``idx`` are in the plant's law arrays (``plant.visc_idx``, ascending)."""
+    pos = np.searchsorted(plant.visc_idx, idx)
+    if not np.array_equal(plant.visc_idx[np.minimum(pos, len(plant.visc_idx) - 1)], idx):
+        raise ValueError(f"turbines {idx} are not all hd_visc (hd_visc: {plant.visc_idx})")
+    return pos
+
+
+def _law_traces(plant, pos) -> tuple[np.ndarray, np.ndarray]:
+    """(delta, e_mag) of the hd_visc law at ``pos``: the values of ``outputs()``' ``visc_delta`` and
+    ``visc_e`` of those turbines, read from the plant's present evaluation (the one ``outputs()`` and
+    ``recorded()`` read) without ``outputs()``' full node-voltage solve, fault sequences and losses."""
+    lo = plant._eval_cached()[2]["law_out"]  # no public accessor of the law's outputs but outputs()
+    if lo is None:
+        return np.full(len(pos), np.nan), np.full(len(pos), np.nan)
+    return lo.delta[pos], lo.e_mag[pos]
 
 
 def _meas(plant, idx) -> SimpleNamespace:
