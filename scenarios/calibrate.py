@@ -59,6 +59,10 @@ F6 and F9's four-SDViSC case, whose pilots at 16 had taken 0.50–0.88 Ts in the
 sent them to 32), had 99.8–99.9 % of every turbine's answers within one sample; F1 at k = 8, whose
 pilots at 8 took 0.79–0.94 Ts, had 98.6 and 99.5 %. A run that does not hold says so (summary
 ``advice``) and the report runs it again at twice its k."""
+VISC_SAMPLE_WALL_S = 130e-6
+"""The whole emulation's CPU per ViSC sample at 50 ViSCs (plant, SDC, SDN app and ovs-vswitchd:
+127–133 µs on this 2-core VM, benchmarks/measured/all-visc-50-issue32-2026-12-03.json): the first
+candidate a calibration without a cached or given start tries (:func:`first_guess`)."""
 PROBE_WALL_S = 1.5  # wall time per candidate …
 MIN_PROBE_STEPS = 200  # … but at least this many steps (MEAS per turbine)
 PROBE_COOKIE = 0x5D5CA1E
@@ -126,6 +130,15 @@ def search(trial, start: float | None = None, candidates: tuple = CANDIDATES) ->
             break
         j += step
     return trials
+
+
+def first_guess(n_visc: int, step_s: float, candidates: tuple = CANDIDATES) -> float:
+    """The candidate to try first for ``n_visc`` ViSC turbines: the largest at or below the k whose
+    sample holds their CPU (``n_visc`` × :data:`VISC_SAMPLE_WALL_S`) on one core — two cores share
+    it, so the guess errs low and :func:`search` goes up from it (all_visc_50: 8, then 16; two trials
+    instead of five from k = 1)."""
+    need = n_visc * VISC_SAMPLE_WALL_S / step_s
+    return max([k for k in candidates if k <= need] or [candidates[0]])
 
 
 def choose(trials: list[dict]) -> tuple[float, bool]:
@@ -242,8 +255,8 @@ class Calibration:
         return pilot
 
     def measure(self) -> dict:
-        """Pilot candidates from k = 1 upwards (or from the run's ``calibrate_from``, see :func:`search`);
-        returns the calibration for ``summary.json``."""
+        """Pilot candidates from the run's ``calibrate_from`` or else :func:`first_guess` (see
+        :func:`search`); returns the calibration for ``summary.json``."""
         run = self.run
         hosts = run.desc["hosts"]
         setup = PilotSetup(hosts[self.sdc_host]["ip"], self.turbines,
@@ -261,7 +274,8 @@ class Calibration:
                     rxstamp.enable(sock)
                     setup.socks[wt] = sock
             self._model(setup)
-            trials = search(lambda k: self._trial(setup, k), getattr(run, "calibrate_from", None))
+            start = getattr(run, "calibrate_from", None) or first_guess(len(self.turbines), self.step_s)
+            trials = search(lambda k: self._trial(setup, k), start)
         finally:
             for sock in setup.socks.values():
                 sock.close()
@@ -277,7 +291,7 @@ class Calibration:
             if left:
                 raise RuntimeError(f"calibration: pilot rules still on {left} after removing them")
         k, met = choose(trials)
-        return {"time_scale": k, "met": met, "started_from": getattr(run, "calibrate_from", None),
+        return {"time_scale": k, "met": met, "started_from": start if self.turbines else None,
                 "turbines": self.turbines, "sdc": self.sdc_host,
                 "limits": {"busy": BUSY_LIMIT, "round_trip_p99_sim_ms": ROUND_TRIP_LIMIT_STEPS * self.step_s * 1e3},
                 "trials": trials, "wall_s": round(time.time() - started, 2), "plant_model": run.scenario.plant.model}

@@ -18,9 +18,12 @@ from scenarios.calibrate import (
     CANDIDATES,
     PROBE_COOKIE_TEXT,
     ROUND_TRIP_LIMIT_STEPS,
+    VISC_SAMPLE_WALL_S,
     borderline,
     choose,
+    first_guess,
     pilot_flows,
+    search,
     shortfalls,
 )
 from scenarios.summary import round_trip, time_advice
@@ -65,6 +68,25 @@ def test_choose_takes_the_smallest_passing_k_else_the_largest_tried():
     assert choose([{"k": 1, "ok": False}, {"k": 2, "ok": False}, {"k": 4, "ok": True}]) == (4.0, True)
     assert choose([{"k": 1, "ok": True}]) == (1.0, True)
     assert choose([{"k": k, "ok": False} for k in CANDIDATES]) == (64.0, False)
+
+
+def test_the_first_guess_is_the_largest_candidate_at_or_below_the_one_core_need():
+    step = 0.67e-3
+    for n in (0, 1, 4, 16, 50, 500):
+        k, need = first_guess(n, step), n * VISC_SAMPLE_WALL_S / step  # the k whose sample holds it on one core
+        assert k in CANDIDATES
+        assert k == CANDIDATES[0] or k <= need
+        assert k == CANDIDATES[-1] or CANDIDATES[CANDIDATES.index(k) + 1] > need
+    assert first_guess(50, step) == 8 and first_guess(4, step) == 1
+
+
+def test_searching_from_the_guess_finds_what_searching_from_one_finds_in_fewer_trials():
+    for smallest in CANDIDATES:
+        trial = lambda k, s=smallest: {"k": k, "ok": k >= s}  # noqa: E731
+        from_one, from_guess = search(trial), search(trial, first_guess(50, 0.67e-3))
+        assert choose(from_one) == choose(from_guess) == (float(smallest), True)
+        if smallest >= 8:
+            assert len(from_guess) < len(from_one)
 
 
 def _walk(desc: dict, flows: dict, src_switch: str, dst_host: str, match: str) -> list[str]:
