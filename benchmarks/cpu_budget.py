@@ -22,14 +22,12 @@ included: an upper bound of its intake cost).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-from scenario_runs import machine, run_dict  # benchmarks/scenario_runs.py
+from scenario_runs import finish, run_dict, work_dir  # benchmarks/scenario_runs.py
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from scenarios.switch_links import SWITCH_LINK_KINDS  # noqa: E402
@@ -88,10 +86,7 @@ def main() -> int:
     ap.add_argument("--cpu-split", choices=("on", "off"), default="off")
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
-    if os.geteuid() != 0:
-        raise SystemExit("needs root")
-    work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-cpu-"))
-    work.mkdir(parents=True, exist_ok=True)
+    work = work_dir(args.out, "sdvisc-cpu-")
     result: dict = {"benchmark": "cpu_budget", "plant": args.plant, "time_scale": args.time_scale,
                     "sdn_intake": args.sdn_intake, "switch_revalidation_ms": args.switch_revalidation_ms,
                     "duration_s": args.duration, "switch_ports": args.switch_ports, "switch_links": args.switch_links,
@@ -109,10 +104,7 @@ def main() -> int:
                      "--cpu-split", args.cpu_split)
         result["cases"][f"{n}_visc"] = {"time_scale": k, **case_figures(s, n)}
     result["wall_s"] = round(time.time() - started, 1)
-    result["load_after"] = os.getloadavg()
-    result["machine"] = machine()
-    print(json.dumps(result, indent=1))
-    return 0
+    return finish(result)
 
 
 if __name__ == "__main__":

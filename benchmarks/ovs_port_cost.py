@@ -13,13 +13,12 @@ JSON object. Needs root; makes bridge ``tcost0`` and namespaces ``tcost<i>`` and
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
 import time
 
-from scenario_runs import machine  # benchmarks/scenario_runs.py
+from scenario_runs import finish  # benchmarks/scenario_runs.py
 
 BRIDGE = "tcost0"
 
@@ -116,10 +115,7 @@ def main() -> int:
     for kind in args.kinds.split(","):
         for n in (int(x) for x in args.ports.split(",")):
             result["cases"].append(measure(kind, n, args.packets, args.gap_us * 1e-6))
-    result["load_after"] = os.getloadavg()
-    result["machine"] = machine()
-    print(json.dumps(result, indent=1))
-    return 0
+    return finish(result)
 
 
 if __name__ == "__main__":

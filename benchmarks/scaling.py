@@ -24,12 +24,11 @@ import json
 import math
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
 from cpu_budget import case_figures, scenario  # benchmarks/cpu_budget.py
-from scenario_runs import machine, run_dict  # benchmarks/scenario_runs.py
+from scenario_runs import finish, run_dict, work_dir  # benchmarks/scenario_runs.py
 from time_scale import LATE_MAX, WITHIN_ONE_MIN, judge  # benchmarks/time_scale.py
 
 SETTINGS = {"switch_links": "patch", "cpu_split": True, "switch_revalidation_ms": 10000}  # all_visc_50's
@@ -102,10 +101,7 @@ def main() -> int:
     ap.add_argument("--png", type=Path)
     ap.add_argument("--out", type=Path)
     args = ap.parse_args()
-    if os.geteuid() != 0:
-        raise SystemExit("needs root")
-    work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-scaling-"))
-    work.mkdir(parents=True, exist_ok=True)
+    work = work_dir(args.out, "sdvisc-scaling-")
     result: dict = {"benchmark": "scaling", "settings": SETTINGS, "switch_ports": args.switch_ports,
                     "duration_s": args.duration, "criteria": {"late_fraction_below": LATE_MAX,
                                                               "within_one_sample_at_least": WITHIN_ONE_MIN},
@@ -125,12 +121,9 @@ def main() -> int:
         print(json.dumps({n: {"smallest_k": found, "auto": case.get("auto", {}).get("time_scale")}}), file=sys.stderr)
         k = found or k
     result["wall_s"] = round(time.time() - started, 1)
-    result["load_after"] = os.getloadavg()
-    result["machine"] = machine()
     if args.png:
         plot(result, args.png)
-    print(json.dumps(result, indent=1))
-    return 0
+    return finish(result)
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ import os
 import platform
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import yaml
@@ -34,3 +35,20 @@ def run_dict(scenario: dict, work: Path, *extra: str, timeout: float = 3600) -> 
 def machine() -> dict:
     return {"platform": platform.platform(), "cpus": os.cpu_count(), "python": platform.python_version(),
             "load": os.getloadavg()}
+
+
+def work_dir(out: Path | None, prefix: str) -> Path:
+    """The benchmark's working directory (``out``, else a new temporary one); root is required."""
+    if os.geteuid() != 0:
+        raise SystemExit("needs root")
+    work = out or Path(tempfile.mkdtemp(prefix=prefix))
+    work.mkdir(parents=True, exist_ok=True)
+    return work
+
+
+def finish(result: dict) -> int:
+    """Stamp ``result`` with the load after and the machine, print it as JSON; the exit code."""
+    result["load_after"] = os.getloadavg()
+    result["machine"] = machine()
+    print(json.dumps(result, indent=1))
+    return 0

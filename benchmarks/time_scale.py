@@ -16,14 +16,12 @@ Needs root. Defaults: ``fault_4visc_network`` and ``all_visc_50``.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
-import tempfile
 import time
 from pathlib import Path
 
-from scenario_runs import ROOT, machine, run_file  # benchmarks/scenario_runs.py
+from scenario_runs import ROOT, finish, run_file, work_dir  # benchmarks/scenario_runs.py
 
 LATE_MAX = 0.01
 WITHIN_ONE_MIN = 0.99
@@ -90,10 +88,7 @@ def main() -> int:
     args = ap.parse_args()
     links = ("--switch-links", args.switch_links) if args.switch_links else ()
     extra = links + (("--cpu-split", args.cpu_split) if args.cpu_split else ())
-    if os.geteuid() != 0:
-        raise SystemExit("needs root")
-    work = args.out or Path(tempfile.mkdtemp(prefix="sdvisc-timescale-"))
-    work.mkdir(parents=True, exist_ok=True)
+    work = work_dir(args.out, "sdvisc-timescale-")
     result: dict = {"benchmark": "time_scale", "cpus": os.cpu_count(), "load_before": os.getloadavg(),
                     "criteria": {"late_fraction_below": LATE_MAX, "within_one_sample_at_least": WITHIN_ONE_MIN,
                                  "converter_trips": 0},
@@ -114,10 +109,7 @@ def main() -> int:
         for name in args.scenarios.split(","):  # --cpu-split is what the comparison varies
             result["scenarios"][name] = compare_cpu_split(name, work, args.start, args.compare_cpu_split, links)
     result["wall_s"] = round(time.time() - started, 1)
-    result["load_after"] = os.getloadavg()
-    result["machine"] = machine()
-    print(json.dumps(result, indent=1))
-    return 0
+    return finish(result)
 
 
 if __name__ == "__main__":
