@@ -41,7 +41,8 @@ def farm_scenario(n: int, duration: float, k: float | str) -> dict:
 
 
 def run_at(n: int, k: float | str, args, work: Path) -> dict:
-    return run_dict(farm_scenario(n, args.duration, k), work, "--switch-ports", args.switch_ports)
+    fresh = ("--recalibrate",) if k == "auto" else ()  # measured, never the calibration cache's k
+    return run_dict(farm_scenario(n, args.duration, k), work, "--switch-ports", args.switch_ports, *fresh)
 
 
 def smallest_k(n: int, start: float, args, work: Path) -> tuple[float | None, dict, dict | None]:
