@@ -187,13 +187,18 @@ class SdviscApp(app_manager.OSKenApp):
             while len(batch) < INTAKE_BATCH:
                 try:
                     data, (src_ip, _port) = sock.recvfrom(2048)
-                except (BlockingIOError, InterruptedError):
+                except OSError:  # nothing more waiting (or an error the next poll sees again)
                     break
                 batch.append((src_ip, data))
-            if batch:
-                self.intake_counts["rx"] += len(batch)
-                self.intake_counts["wakeups"] += 1
+            if not batch:
+                continue
+            self.intake_counts["rx"] += len(batch)
+            self.intake_counts["wakeups"] += 1
+            try:
                 self._decide(self.logic.delivered, batch)
+            except Exception:  # noqa: BLE001 - a failed decision is logged and counted; the intake goes on
+                self.intake_counts["decision_errors"] += 1
+                self.logger.exception("intake: a decision on %d datagrams failed", len(batch))
 
     def _timer_loop(self) -> None:
         while not STOPPING:
