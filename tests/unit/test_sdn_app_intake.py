@@ -1,0 +1,86 @@
+"""The os-ken shim's intake thread on a real UDP socket (loopback, no switches, no namespace): the
+datagrams waiting at a wake-up become one decision, bad ones are counted, and a decision that raises
+is counted and logged without ending the thread."""
+
+from __future__ import annotations
+
+import socket
+import time
+
+import pytest
+
+import sdn_app.app as app_module
+from sdvisc import wire
+from sdvisc.config import CONTROLLER_VMAC, AppConfig, write_config
+from topologies import topos
+from topologies.base import describe
+
+SDC_IP = "127.0.0.21"  # sdc1 on loopback: any 127/8 address is this machine's
+APP_IP = "127.0.0.1"
+
+
+def heartbeat(seq: int) -> bytes:
+    return wire.encode(wire.MsgType.HEARTBEAT, {"sdc_id": 1, "seq": seq, "n_instances": 0, "t_wall": 0.0},
+                       header=wire.Header(seq, 0, 0))
+
+
+@pytest.fixture
+def app(tmp_path, monkeypatch):
+    topo = topos["farm"](clusters=1, turbines=2, layout="compact")
+    topo.add_intake(APP_IP, CONTROLLER_VMAC)
+    desc = describe(topo)
+    desc["hosts"]["sdc1"]["ip"] = SDC_IP
+    cfg = AppConfig.model_validate({"topology": desc, "backup_sdc": None, "state_dir": str(tmp_path),
+                                    "controller_vip": APP_IP, "intake_socket": {"netns_pid": None}})
+    monkeypatch.setenv(app_module.CONFIG_ENV, str(write_config(cfg, tmp_path / "sdn.json")))
+    monkeypatch.setattr(app_module, "STOPPING", False)
+    instance = app_module.SdviscApp()
+    yield instance
+    app_module.STOPPING = True
+    instance._timer.join(timeout=2.0)
+    instance._intake_thread.join(timeout=2.0)
+    instance.stop()
+    instance._intake.close()
+
+
+def send(datagrams: list[tuple[str, bytes]]) -> None:
+    for src, data in datagrams:
+        with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as sock:
+            sock.bind((src, 0))
+            sock.sendto(data, (APP_IP, wire.PORT_CONTROLLER))
+
+
+def wait_for(condition, timeout: float = 10.0) -> bool:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if condition():
+            return True
+        time.sleep(0.01)
+    return condition()
+
+
+def test_datagrams_on_the_socket_are_decided_and_bad_ones_counted(app):
+    send([(SDC_IP, heartbeat(1)), (SDC_IP, heartbeat(2)), ("127.0.0.99", heartbeat(3)), (SDC_IP, b"\x00" * 9)])
+    counters = app.logic.counters
+    assert wait_for(lambda: counters["intake_rx"] == 4)
+    assert counters["heartbeats"] == 2 and counters["drop_intake_unknown_source"] == 1
+    assert counters["drop_malformed"] == 1 and counters["packet_in"] == 0
+    assert app.intake_counts["rx"] == 4 and 1 <= app.intake_counts["wakeups"] <= 4
+
+
+def test_a_decision_that_raises_is_counted_and_the_intake_goes_on(app, monkeypatch):
+    delivered = app.logic.delivered
+    calls = []
+
+    def fails_once(batch, now):
+        calls.append(len(batch))
+        if len(calls) == 1:
+            raise RuntimeError("a bug in a decision")
+        return delivered(batch, now)
+
+    monkeypatch.setattr(app.logic, "delivered", fails_once)
+    send([(SDC_IP, heartbeat(1))])
+    assert wait_for(lambda: app.intake_counts["decision_errors"] == 1)
+    send([(SDC_IP, heartbeat(2))])
+    assert wait_for(lambda: app.logic.counters["heartbeats"] == 1)
+    assert app._intake_thread.is_alive()
