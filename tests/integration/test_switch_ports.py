@@ -10,9 +10,9 @@ import subprocess
 import pytest
 import yaml
 
+from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC
 from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario
 from topologies import topos
-from topologies.base import describe
 
 pytestmark = pytest.mark.network
 SC = ROOT / "scenarios"
@@ -50,8 +50,9 @@ def test_a_patch_link_fails_and_returns_like_a_veth(tmp_path):
     path.write_text(yaml.safe_dump(sc))
     s = run_scenario(path, tmp_path / "out")
     assert s["switch_links"] == "patch"
-    hosts = describe(topos["paper"](clusters=1, turbines=2))["hosts"]  # as in link_failure_ff.yaml
-    assert s["switch_ports"]["ports"] == len(hosts)  # only the hosts' links are veths
+    topo = topos["paper"](clusters=1, turbines=2)  # as in link_failure_ff.yaml
+    topo.add_intake(CONTROLLER_VIP, CONTROLLER_VMAC)  # and the SDN app's intake host (docs/sdn.md)
+    assert s["switch_ports"]["ports"] == len(topo.hosts())  # only the hosts' links are veths
     seen = [(e["type"], sorted(e["link"])) for e in s["events"]
             if e.get("source") == "sdn_app" and e["type"] in ("link_down", "link_up")]
     assert seen == [("link_down", ["s1", "s3"]), ("link_up", ["s1", "s3"])]
