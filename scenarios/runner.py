@@ -155,8 +155,7 @@ class Run:
             self.impairments.set_clock(self.clock_settings)
             self._say(self.calibration["line"])
             phase("calibration")
-        # after the hosts exist (the intake socket opens in one's namespace); the switches are told to
-        # connect at once, not after Open vSwitch's back-off (up to 8 s)
+        # once the hosts exist (the intake socket opens in ctl's); switches reconnect now, not after a back-off
         self._start_sdn_apps(ports)
         reconnect_controllers(self.net.switches)
         self._wait_switches()
@@ -180,17 +179,14 @@ class Run:
         cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings, intake_pid=intake),
                                 self.out / "sdn_config.json")
         app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
-        if sc.sdn.redundancy:
-            peer_a, peer_b = _free_port(), _free_port()
-            self.processes.start("controller", app + ["--ofp-port", str(ports[0]), "--role", "master", "--instance", "1",
-                                                      "--peer", f"{peer_a}:{peer_b}"])
-            self.processes.start("controller2", app + ["--ofp-port", str(ports[1]), "--role", "slave", "--instance", "2",
-                                                       "--peer", f"{peer_b}:{peer_a}"])
-            self.processes.wait_listening("controller", ports[0], "SDN app", SWITCH_CONNECT_TIMEOUT_S)
-            self.processes.wait_listening("controller2", ports[1], "SDN app", SWITCH_CONNECT_TIMEOUT_S)
-        else:
-            self.processes.start("controller", app + ["--ofp-port", str(ports[0])])
-            self.processes.wait_listening("controller", ports[0], "SDN app", SWITCH_CONNECT_TIMEOUT_S)
+        a, b = (_free_port(), _free_port()) if sc.sdn.redundancy else (0, 0)  # the pair's peer heartbeat
+        apps = ([("controller", ports[0], ["--role", "master", "--instance", "1", "--peer", f"{a}:{b}"]),
+                 ("controller2", ports[1], ["--role", "slave", "--instance", "2", "--peer", f"{b}:{a}"])]
+                if sc.sdn.redundancy else [("controller", ports[0], [])])
+        for name, port, role in apps:
+            self.processes.start(name, app + ["--ofp-port", str(port), *role])
+        for name, port, _ in apps:
+            self.processes.wait_listening(name, port, "SDN app", SWITCH_CONNECT_TIMEOUT_S)
 
     def _wait_switches(self) -> None:
         want = {s["dpid"] for s in self.desc["switches"].values() if s["openflow"]}
@@ -222,10 +218,7 @@ class Run:
         return max(masters or states, key=lambda s: (s.get("generation", 0), s.get("t_wall", 0)))
 
     def plant_status(self) -> dict | None:
-        try:
-            return json.loads((self.out / "plant_status.json").read_text())
-        except (OSError, json.JSONDecodeError):
-            return None
+        return self._read_state("plant_status.json")
 
     def start_services(self) -> None:
         sc = self.scenario
@@ -255,8 +248,6 @@ class Run:
         if self.cpu_split["applied"]:  # where each process may run (summary.json cpu_split.seen)
             self.cpu_split["seen"] = cpu_split.seen({n: p.pid for n, p in self.procs.items()})
         self.wall_started = self.clock.to_wall(self.t0)
-        self.cpu_at_start: dict[str, float] = {}
-        self.cpu_at_controllers_stop: dict[str, float] = {}
 
     def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
         """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
