@@ -9,9 +9,9 @@ import time
 
 import pytest
 
-import sdn_app.app as app_module
 from sdvisc import wire
-from sdvisc.config import CONTROLLER_VMAC, AppConfig, write_config
+from sdvisc.config import CONTROLLER_VMAC, AppConfig
+from tests.unit.test_sdn_app_threads import running_app
 from topologies import topos
 from topologies.base import describe
 
@@ -32,15 +32,7 @@ def app(tmp_path, monkeypatch):
     desc["hosts"]["sdc1"]["ip"] = SDC_IP
     cfg = AppConfig.model_validate({"topology": desc, "backup_sdc": None, "state_dir": str(tmp_path),
                                     "controller_vip": APP_IP, "intake_socket": {"netns_pid": None}})
-    monkeypatch.setenv(app_module.CONFIG_ENV, str(write_config(cfg, tmp_path / "sdn.json")))
-    monkeypatch.setattr(app_module, "STOPPING", False)
-    instance = app_module.SdviscApp()
-    yield instance
-    app_module.STOPPING = True
-    instance._timer.join(timeout=2.0)
-    instance._intake_thread.join(timeout=2.0)
-    instance.stop()
-    instance._intake.close()
+    yield from running_app(cfg, tmp_path, monkeypatch)
 
 
 def send(datagrams: list[tuple[str, bytes]]) -> None:

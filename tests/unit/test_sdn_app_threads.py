@@ -59,16 +59,24 @@ class Overlap:
         return getattr(self.logic, name)
 
 
-@pytest.fixture
-def app(tmp_path, monkeypatch):
-    cfg = make_config(state_dir=str(tmp_path))
+def running_app(cfg, tmp_path, monkeypatch):
+    """The real app class on configuration ``cfg`` with its threads; stopped when the test ends."""
     monkeypatch.setenv(app_module.CONFIG_ENV, str(write_config(cfg, tmp_path / "sdn.json")))
     monkeypatch.setattr(app_module, "STOPPING", False)
     instance = app_module.SdviscApp()
     yield instance
     app_module.STOPPING = True
-    instance._timer.join(timeout=2.0)
+    for thread in (instance._timer, getattr(instance, "_intake_thread", None)):
+        if thread is not None:
+            thread.join(timeout=2.0)
     instance.stop()
+    if instance._intake is not None:
+        instance._intake.close()
+
+
+@pytest.fixture
+def app(tmp_path, monkeypatch):
+    yield from running_app(make_config(state_dir=str(tmp_path)), tmp_path, monkeypatch)
 
 
 def port_status_event(dpid: int, port: int, up: bool):
