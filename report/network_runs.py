@@ -160,8 +160,9 @@ def did_not_hold(summary: dict) -> str | None:
     if summary.get("advice"):
         return summary["advice"]
     turbines = summary.get("turbines", {})
+    within = {wt: (t.get("round_trip_samples") or {}).get("within_one") for wt, t in turbines.items()}
     late = {wt: n for wt, n in (summary.get("converter_trips") or {}).items()
-            if n and ((turbines.get(wt, {}).get("round_trip_samples") or {}).get("within_one") or 1.0) < 1.0}
+            if n and within.get(wt) is not None and within[wt] < 1.0}
     if late:
         return (f"converter trips {late} with answers a sample late or more: a late answer may have tripped them; "
                 f"run again at --time-scale {2 * summary['time']['time_scale']:g}")
