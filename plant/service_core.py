@@ -273,7 +273,8 @@ class PlantCore:
             if send_ak or ak_now != ep.last_ak_sent or loss_due:  # periodic, on every change, at the hold
                 ep.loss_reported = ep.loss_reported or loss_due
                 aks.append((ep, self._ak(ep, ak_now, now, sec, nsec), self.ak_addr))
-        return out + aks
+        out.extend(aks)
+        return out
 
     def _ak(self, ep: Endpoint, ak: int, now: float, sec: int, nsec: int) -> bytes:
         ep.ak_seq += 1

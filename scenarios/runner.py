@@ -125,7 +125,7 @@ class Run:
         if sc.switch_revalidation_ms:  # before the calibration: it measures the run's switches
             self.switch_revalidation = ovs_revalidation.apply(sc.switch_revalidation_ms)
         topo = self.impairments.build_topology(topos[sc.topology.name], sc.topology.params())
-        if sc.sdn.intake_socket(any(s["openflow"] for s in describe(topo)["switches"].values())):
+        if sc.sdn.uses_intake_socket(any(s["openflow"] for s in describe(topo)["switches"].values())):
             topo.add_intake(CONTROLLER_VIP, CONTROLLER_VMAC)
         self.desc = describe(topo)
         ports = [_free_port(), _free_port()]

@@ -131,7 +131,7 @@ class SdnSpec(SdnOptions):
                              "so that the slave sees what the master sees")
         return self
 
-    def intake_socket(self, has_openflow_switch: bool) -> bool:
+    def uses_intake_socket(self, has_openflow_switch: bool) -> bool:
         """True if the run forwards the controller's datagrams to the app's socket."""
         return self.intake != "packet_in" and not self.redundancy and has_openflow_switch
 

@@ -53,7 +53,7 @@ RUN_DERIVED = {  # (process config, option; "*": every config): why no scenario 
     ("AppConfig", "primary_sdc"): "a host name every topology has (the backup: sdc.backup)",
     ("AppConfig", "state_dir"): "the run's output directory",
     ("AppConfig", "intake_socket"): "the intake host's namespace, given by the runner when sdn.intake resolves to "
-                                    "socket (scenarios.schema.SdnSpec.intake_socket)",
+                                    "socket (scenarios.schema.SdnSpec.uses_intake_socket)",
     ("SdcConfig", "sdc_id"): "one per SDC the runner starts (scenarios.configs.sdcs)",
     ("SdcConfig", "role"): "one per SDC the runner starts (scenarios.configs.sdcs)",
     ("SdcConfig", "bind_ip"): "every address of the SDC's namespace; tests bind to the loopback",

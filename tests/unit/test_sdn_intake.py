@@ -7,7 +7,6 @@ from __future__ import annotations
 import pytest
 from os_ken.ofproto import ofproto_v1_3, ofproto_v1_3_parser
 from pydantic import ValidationError
-from test_sdn_logic import frame, ingress, request
 
 from scenarios.schema import SdnSpec
 from sdn_app import flows as fl
@@ -15,6 +14,7 @@ from sdn_app.logic import Controller
 from sdn_app.ofmsg import to_messages
 from sdvisc import wire
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, AppConfig
+from tests.unit.test_sdn_logic import frame, ingress, request
 from topologies import topos
 from topologies.base import INTAKE_BRIDGE, INTAKE_HOST, describe
 
@@ -144,9 +144,9 @@ def test_a_silent_socket_is_the_controllers_own_stall_as_silent_packet_ins_were(
 
 
 def test_the_scenario_chooses_socket_unless_a_redundant_pair_runs():
-    assert SdnSpec().intake_socket(has_openflow_switch=True)
-    assert not SdnSpec(redundancy=True).intake_socket(True)
-    assert not SdnSpec(intake="packet_in").intake_socket(True)
-    assert not SdnSpec().intake_socket(has_openflow_switch=False)
+    assert SdnSpec().uses_intake_socket(has_openflow_switch=True)
+    assert not SdnSpec(redundancy=True).uses_intake_socket(True)
+    assert not SdnSpec(intake="packet_in").uses_intake_socket(True)
+    assert not SdnSpec().uses_intake_socket(has_openflow_switch=False)
     with pytest.raises(ValidationError, match="redundant pair needs packet_in"):
         SdnSpec(redundancy=True, intake="socket")
