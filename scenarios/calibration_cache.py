@@ -88,7 +88,8 @@ def shape_of(scenario) -> dict:
     dump = scenario.model_dump(mode="json")
     return {"topology": dump["topology"], "step_s": dump["step_s"], "plant": dump["plant"], "sdc": dump["sdc"],
             "sdn": dump["sdn"], "switch_ports": dump["switch_ports"], "switch_links": dump["switch_links"],
-            "cpu_split": dump["cpu_split"], "switch_revalidation_ms": dump["switch_revalidation_ms"], "links": dump["links"], "impairable": dump["impairable"], "visc": visc}
+            "cpu_split": dump["cpu_split"], "switch_revalidation_ms": dump["switch_revalidation_ms"],
+            "links": dump["links"], "impairable": dump["impairable"], "visc": visc}
 
 
 def cache_key(machine: dict, code: str, shape: dict) -> str:
