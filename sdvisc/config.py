@@ -23,10 +23,12 @@ import sys
 from pathlib import Path
 from typing import Annotated, Literal, TypeVar
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from sdvisc.clock import Clock
-from sdvisc.vocabulary import MAX_ONSHORE_UNITS, TURBINE_PATTERN
+from sdvisc.vocabulary import MAX_ONSHORE_UNITS, TURBINE_PATTERN, VISC_PARAMS
+from sdvisc.yaml_lines import line_of
 
 CONTROLLER_VIP = "10.0.0.254"
 """The SDN application's virtual IP address (packets to it reach the controller's intake socket, or
@@ -209,8 +211,36 @@ class OwfccOptions(_Config):
     max_tries: int = Field(4, ge=1, description="send a request at most this many times")
 
 
+class ScheduledCommand(_Config):
+    """One command of a deployed OWFCC's ``schedule`` (what a stdin or command-socket line says)."""
+
+    t_s: float = Field(ge=0, le=1e6, description="send it this many simulated seconds after the OWFCC starts")
+    cmd: Literal["visc_on", "visc_off", "set_params"]
+    wt: TurbineName
+    params: dict[str, float] = Field(default_factory=dict, description=(
+        "ViSC parameters by name (h, d, m_q, v_ref, q_ref, supp), as in a scenario's visc_on/set_params"))
+
+    @field_validator("params")
+    @classmethod
+    def _known_params(cls, params: dict[str, float]) -> dict[str, float]:
+        unknown = sorted(set(params) - set(VISC_PARAMS))
+        if unknown:
+            raise ValueError(f"unknown ViSC parameter(s) {', '.join(unknown)}; known: {', '.join(VISC_PARAMS)}")
+        return params
+
+
 class OwfccConfig(ProcessBase, OwfccOptions):
-    """``python -m owfcc.service``."""
+    """``python -m owfcc.service`` (the runner's) or ``sdvisc owfcc`` (a deployed one: its
+    commands from ``schedule`` and ``command_socket``, ``stdin_commands: false``)."""
+
+    bind_ip: str = Field("0.0.0.0", description="address of the socket that sends REQUESTs and receives REPLYs")
+    stdin_commands: bool = Field(True, description=(
+        "read commands (JSON lines) on stdin, and stop at its end once every request is answered or given "
+        "up (the runner's); false: stdin is not read, the OWFCC runs until SIGTERM (a deployed one)"))
+    schedule: list[ScheduledCommand] = Field(default_factory=list, description=(
+        "commands sent at these simulated times after start (a deployed OWFCC's timeline)"))
+    command_socket: str | None = Field(None, description=(
+        "path of a Unix datagram socket on which JSON-line commands are accepted (sdvisc owfcc-send)"))
 
 
 class SwitchInfo(_Config):
@@ -321,30 +351,56 @@ class ImpairNodeConfig(ClockSettings, OutputDir, RealtimePriority, LinkEnds, Lin
 C = TypeVar("C", bound=BaseModel)
 
 
-def _explain(path: str | Path, exc: ValidationError) -> str:
+def _explain(path: str | Path, exc: ValidationError, nodes: yaml.Node | None = None) -> str:
+    """One line per problem, ``FILE: key.path: problem``; with the YAML node tree of the file
+    (``nodes``) ``FILE:LINE: key.path: problem``, in the order of the lines."""
     lines = []
     for err in exc.errors():
         where = ".".join(str(p) for p in err["loc"]) or "(top level)"
         msg = "unknown key (not allowed here)" if err["type"] == "extra_forbidden" else err["msg"]
-        lines.append(f"{path}: {where}: {msg}")
-    return "\n".join(lines)
+        line = line_of(nodes, tuple(err["loc"])) if nodes is not None else None
+        lines.append((line or 0, f"{path}{f':{line}' if line else ''}: {where}: {msg}"))
+    if nodes is not None:
+        lines.sort(key=lambda item: item[0])
+    return "\n".join(text for _, text in lines)
 
 
-def parse_config(model: type[C], data: dict, source: str | Path = "<config>") -> C:
-    """Validate ``data`` as ``model``; :class:`ConfigError` listing every problem otherwise."""
+def parse_config(model: type[C], data: dict, source: str | Path = "<config>", *, nodes: yaml.Node | None = None) -> C:
+    """Validate ``data`` as ``model``; :class:`ConfigError` listing every problem otherwise (with
+    the line of each key when ``nodes``, the YAML node tree ``data`` was read from, is given)."""
     try:
         return model.model_validate(data)
     except ValidationError as exc:
-        raise ConfigError(_explain(source, exc)) from exc
+        raise ConfigError(_explain(source, exc, nodes)) from exc
+
+
+YAML_SUFFIXES = (".yaml", ".yml")
+"""A configuration file with one of these suffixes is read as YAML (``yaml.safe_load``), any other as JSON."""
 
 
 def load_config(model: type[C], path: str | Path) -> C:
-    """Read and validate a process configuration file."""
+    """Read and validate a process configuration file: YAML (:data:`YAML_SUFFIXES`, as a lab writes
+    it by hand) or JSON (what :func:`write_config` and the runner write). Every problem of the file
+    is reported at once, each with its key path and, in a YAML file, its line."""
+    path = Path(path)
     try:
-        raw = json.loads(Path(path).read_text())
-    except (OSError, json.JSONDecodeError) as exc:
-        raise ConfigError(f"{path}: cannot read JSON config: {exc}") from exc
-    return parse_config(model, raw, path)
+        text = path.read_text()
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read config: {exc.strerror or exc}") from exc
+    if path.suffix.lower() not in YAML_SUFFIXES:
+        try:
+            raw = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ConfigError(f"{path}: cannot read JSON config: {exc}") from exc
+        return parse_config(model, raw, path)
+    try:
+        nodes = yaml.compose(text)
+        raw = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f":{mark.line + 1}" if mark else ""
+        raise ConfigError(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', None) or exc}") from exc
+    return parse_config(model, raw, path, nodes=nodes)
 
 
 def load_config_or_exit(model: type[C], path: str | Path, process: str) -> C:
@@ -361,7 +417,8 @@ def service_config(model: type[C], argv: list[str] | None, *, prog: str, process
     """A service's configuration from its command line (``--config FILE``, as the runner starts every
     service), through :func:`load_config_or_exit`."""
     parser = argparse.ArgumentParser(prog=prog, description=description)
-    parser.add_argument("--config", required=True, help="the JSON configuration the runner wrote")
+    parser.add_argument("--config", required=True, help=(
+        "the configuration: JSON (as the runner writes it) or YAML (.yaml/.yml)"))
     return load_config_or_exit(model, parser.parse_args(argv).config, process)
 
 

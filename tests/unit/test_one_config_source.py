@@ -1,7 +1,8 @@
 """One configuration source (issue 31): every option of every process configuration
 (sdvisc/config.py) is set from a scenario file — YAML → scenarios.loader → scenarios.configs (or
 scenarios.impairments) → the process's model, read back from its JSON file — or is listed here as
-derived by the run, with the reason; and no option is defined twice with different bounds or
+derived by the run (or as an option of a deployed service alone, which a run leaves at its
+default), with the reason; and no option is defined twice with different bounds or
 defaults (the ``model_fields`` of the scenario's sections and of the process configurations).
 Pure: no network."""
 
@@ -71,6 +72,17 @@ RUN_DERIVED = {  # (process config, option; "*": every config): why no scenario 
     ("ImpairNodeConfig", "b"): "the link's switch as the built topology describes it (the links entry names it)",
     ("ImpairNodeConfig", "spin_us"): "0: the elements sleep, no busy-waiting (docs/scenarios.md)",
     ("ImpairNodeConfig", "status_period_s"): "how often the runner's status view is refreshed",
+}
+
+DEPLOYMENT_ONLY = {  # options of a service deployed outside a run (docs/real-devices.md): a run leaves the default
+    ("OwfccConfig", "bind_ip"): "a deployed OWFCC's PC may have several addresses; in a run the host has one (and "
+                                "tests bind to the loopback)",
+    ("OwfccConfig", "stdin_commands"): "false for a deployed OWFCC (under systemd stdin is /dev/null); a run sends "
+                                       "the timeline on stdin",
+    ("OwfccConfig", "schedule"): "a deployed OWFCC's own timeline; a run's requests come from the scenario's "
+                                 "timeline on stdin",
+    ("OwfccConfig", "command_socket"): "commands typed on a deployed OWFCC's PC (sdvisc owfcc-send); a run's come "
+                                       "on stdin",
 }
 
 FROM_SCENARIO = {  # options whose scenario key has another name or place: (process config, option) -> key path
@@ -171,7 +183,7 @@ def defined_differently(models) -> dict[str, list[str]]:
 def scenario_keys(config: type[BaseModel], path: tuple) -> list[tuple] | None:
     """The scenario key paths that could set option ``path`` of ``config`` (None: run-derived)."""
     name = path[0]
-    if (config.__name__, name) in RUN_DERIVED or ("*", name) in RUN_DERIVED:
+    if (config.__name__, name) in RUN_DERIVED or ("*", name) in RUN_DERIVED or (config.__name__, name) in DEPLOYMENT_ONLY:
         return None
     if (config.__name__, name) in FROM_SCENARIO:
         return [FROM_SCENARIO[config.__name__, name]]
@@ -261,8 +273,9 @@ def test_every_option_is_set_from_a_scenario_file(config, path, info, key, tmp_p
 
 
 def test_every_option_is_accounted_for():
-    """Each option of each process configuration: a scenario key sets it, or RUN_DERIVED says why not."""
-    listed = {(c, name) for c, name in RUN_DERIVED | FROM_SCENARIO}
+    """Each option of each process configuration: a scenario key sets it, or RUN_DERIVED (or
+    DEPLOYMENT_ONLY) says why not."""
+    listed = {(c, name) for c, name in RUN_DERIVED | FROM_SCENARIO | DEPLOYMENT_ONLY}
     for config in PROCESS_CONFIGS:
         for path, _ in options(config):
             keys = scenario_keys(config, path)
