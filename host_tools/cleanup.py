@@ -18,10 +18,19 @@ from host_tools import cpu_split, ovs_revalidation
 
 SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
 BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
-LINK_RE = re.compile(rf"^(?:{SWITCH_NAME}|imp\d+)(?:-eth\d+)?$")  # imp<n>: impairment elements (topologies.base)
+PEER_NETNS = "sdvisc-peer"
+"""The namespace of an emulated external GTNET-SKT peer (scenarios/external.py)."""
+LINK_RE = re.compile(rf"^(?:(?:{SWITCH_NAME}|imp\d+)(?:-eth\d+)?|sdvx\d+[md])$")  # imp<n>: impairment elements
+# (topologies.base); sdvx<n>m/d: the veths to external devices (veth_names)
 PROCESS_MARKERS = ("-m sdn_app", "-m plant.service", "-m sdc_unit.service", "-m sdc_unit.pilot", "-m owfcc.service",
-                   "-m impairment.element",
+                   "-m impairment.element", "-m plant.gtnet_card",
                    "sdvisc-capture", "mininet:")
+
+
+def veth_names(index: int) -> tuple[str, str]:
+    """A run's veth pair number ``index`` toward an external device: (the Mininet side, the device
+    side), named so that :data:`LINK_RE` finds them."""
+    return f"sdvx{index}m", f"sdvx{index}d"
 
 
 def _run(*args: str) -> str:
@@ -87,22 +96,31 @@ def testbed_links() -> list[str]:
     return names
 
 
+def testbed_netns() -> list[str]:
+    """Network namespaces a run made by name (an emulated peer's)."""
+    return [n for n in _run("ip", "netns", "list").split() if n == PEER_NETNS]
+
+
 def leftovers() -> dict:
     """What a run left behind, without removing anything."""
     return {"processes": [p for p, _ in project_processes()], "bridges": testbed_bridges(), "links": testbed_links(),
+            "netns": testbed_netns(),
             "cpu_split": ["ovs-vswitchd pinned"] if cpu_split.pinned() else [],
             "switch_revalidation": ["max-revalidator changed"] if ovs_revalidation.changed() else []}
 
 
 def clean(verbose: bool = False) -> dict:
     """Remove all leftovers; returns what was removed."""
-    removed = {"processes": kill_processes(), "bridges": [], "links": [],
+    removed = {"processes": kill_processes(), "bridges": [], "links": [], "netns": [],
                "cpu_split": ["ovs-vswitchd unpinned"] if cpu_split.restore() else [],
                "switch_revalidation": ["max-revalidator restored"] if ovs_revalidation.restore() else []}
     bridges = testbed_bridges()
     if bridges:
         _run("ovs-vsctl", "--timeout=10", *sum((["--", "--if-exists", "del-br", b] for b in bridges), []))
         removed["bridges"] = bridges
+    for ns in testbed_netns():
+        _run("ip", "netns", "del", ns)
+        removed["netns"].append(ns)
     for link in testbed_links():
         _run("ip", "link", "del", link)
         removed["links"].append(link)

@@ -16,6 +16,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from plant.settable import ACTIONS as PLANT_ACTIONS
 from plant.settable import model_class, relative_params, settable_params, supported_actions
+from scenarios.external_spec import PeerSpec, external_problems
 from scenarios.schema import EVENT_KINDS, Event, Scenario, TopologySpec
 
 _EVENT = TypeAdapter(Event)
@@ -103,6 +104,7 @@ class _Parts:
     events: list[tuple[int, object]]  # (index in the timeline, validated event)
     turbines: list[tuple[tuple, str]]  # (key path, name) of sdn.visc_disabled and plant.record
     links: list[tuple[tuple, str, str]]  # (key path, a, b) of links and impairable entries
+    peer: PeerSpec | None = None  # plant.peer (an external plant)
 
     @classmethod
     def of_scenario(cls, sc: Scenario) -> _Parts:
@@ -114,7 +116,8 @@ class _Parts:
         links = [(("links", j), lk.a, lk.b) for j, lk in enumerate(sc.links)]
         if isinstance(sc.impairable, list):
             links += [(("impairable", j), lk.a, lk.b) for j, lk in enumerate(sc.impairable)]
-        return cls(sc.topology, sc.duration_s, sc.plant.model, list(enumerate(sc.timeline)), turbines, links)
+        return cls(sc.topology, sc.duration_s, sc.plant.model, list(enumerate(sc.timeline)), turbines, links,
+                   sc.plant.peer)
 
     @classmethod
     def of_partial(cls, data: dict, bad: set[tuple]) -> _Parts:
@@ -154,7 +157,11 @@ class _Parts:
                 links += [((section, j), e["a"], e["b"]) for j, e in enumerate(entries)
                           if isinstance(e, dict) and isinstance(e.get("a"), str) and isinstance(e.get("b"), str)
                           and ok(section, j, "a") and ok(section, j, "b")]
-        return cls(topology, duration, model, events, turbines, links)
+        try:
+            peer = PeerSpec.model_validate(plant["peer"]) if isinstance(plant.get("peer"), dict) else None
+        except ValidationError:
+            peer = None  # reported already
+        return cls(topology, duration, model, events, turbines, links, peer)
 
     def problems(self) -> list[tuple[tuple, str]]:
         out = []
@@ -173,10 +180,12 @@ class _Parts:
 
         topo = self.topology
         desc = describe(topos[topo.name](**topo.params()))
+        problems = external_problems(desc, topo.external_switches, self.peer)
+        if self.peer is not None:  # the peer's turbines are hosts of the run (the card's), whether in the topology or not
+            desc["hosts"].update({name: {"role": "turbine"} for name in self.peer.turbines})
         hosts = desc["hosts"]
         links = {frozenset((lk["a"], lk["b"])) for lk in desc["links"]}
         switches = set(desc["switches"])
-        problems = []
         for i, event in self.events:
             wt = getattr(event, "wt", None)
             if wt is not None and wt not in hosts:
@@ -213,6 +222,10 @@ class _Parts:
 
     def _plant_problems(self) -> list[tuple[tuple, str]]:
         """``set`` parameters and plant actions must be ones the ``plant.model`` class can apply."""
+        if self.model == "external":  # no plant process: nothing of the testbed's can reach into the peer's model
+            return [(("timeline", i, "do"), f"{event.do} acts on the plant model; an external plant (plant.peer) "
+                                            f"takes no commands from the testbed")
+                    for i, event in self.events if event.do in PLANT_ACTIONS or event.do == "set"]
         cls = model_class(self.model)
         settable = settable_params(cls)
         relative = relative_params(cls)

@@ -17,10 +17,12 @@ import sys
 import threading
 import time
 from pathlib import Path
+from types import SimpleNamespace
 
 from host_tools import cleanup, cpu_split, ovs_revalidation
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibration_cache import after_run, choose_time_scale
+from scenarios.external import ExternalDevices
 from scenarios.feedback import progress_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
@@ -31,7 +33,6 @@ from scenarios.summary import build_summary
 from scenarios.timeline import Timeline
 from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
-from sdvisc.netns import set_link_up
 from topologies import topos
 from topologies.base import INTAKE_HOST, CheckedController, TestbedSwitch, default_datapath, describe
 
@@ -82,6 +83,7 @@ class Run:
         self.session = None  # an interactive session (scenarios.live.Session): runs until the user ends it
         self.timeline = Timeline(self)
         self.impairments = Impairments(scenario, out_dir)  # link delay/jitter/loss/bandwidth (netem or elements)
+        self.external = ExternalDevices(scenario)  # an external peer, hardware switches (scenarios/external.py)
 
     # what summary.json reports about the processes
     procs = property(lambda self: self.processes.procs)
@@ -128,6 +130,8 @@ class Run:
         if sc.sdn.uses_intake_socket(any(s["openflow"] for s in describe(topo)["switches"].values())):
             topo.add_intake(CONTROLLER_VIP, CONTROLLER_VMAC)
         self.desc = describe(topo)
+        if self.external.active:  # out of Mininet's hands; the app still sees the whole network
+            self.desc = self.external.detach(topo, self.desc)
         ports = [_free_port(), _free_port()]
         self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
@@ -138,6 +142,9 @@ class Run:
             self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=ports[1])
         phase = self._phase_timer()
         self.net.build()
+        if self.external.active:
+            self.external.make(ports[0])
+            self.external.attach(self.net)
         phase("mininet_build")
         self.net.start()
         phase("switches_start")
@@ -147,6 +154,7 @@ class Run:
             self._say(f"sdvisc: {sc.switch_ports} switch ports refused ({self.switch_ports['refused']}): using system ports")
         phase("switch_ports")
         prepare_hosts(self.net.hosts, CONTROLLER_VIP, CONTROLLER_VMAC)
+        self.external.prepare_hosts(self.net, self.desc)
         phase("hosts_prepare")
         self.impairments.start(self)
         if self.auto_time_scale:  # measured before the SDN app starts (its config carries the clock)
@@ -157,7 +165,7 @@ class Run:
             phase("calibration")
         # once the hosts exist (the intake socket opens in ctl's); switches reconnect now, not after a back-off
         self._start_sdn_apps(ports)
-        reconnect_controllers(self.net.switches)
+        reconnect_controllers([*self.net.switches, *(SimpleNamespace(name=n) for n in self.external.bridge_names())])
         self._wait_switches()
         phase("switches_connect")
 
@@ -239,12 +247,15 @@ class Run:
         for host, sdc_id, _ in configs.sdcs(sc):  # the plant starts only when every SDC is ready
             self.processes.wait_ready(f"{host}.sdc", f"sdc{sdc_id}_ready.json", f"SDC on {host}")
         time.sleep(0.3)  # let the other services bind their sockets
-        pids = {n: self.net.get(n).pid for n, h in hosts.items() if h["role"] == "turbine"}
-        cfg = write_config(configs.plant_config(sc, self.desc, out, pids, self.clock_settings, open_ended=self.session is not None),
-                           self.out / "plant_config.json")
-        self.processes.start("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
-        # the plant sets t = 0 (wall time) once its model is built and warmed up
-        self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
+        if self.external.peer is not None:  # the peer is the plant: the emulated card, or nothing of ours
+            self.t0 = self.external.start_peer(self, hosts["sdc1"]["ip"])
+        else:
+            pids = {n: self.net.get(n).pid for n, h in hosts.items() if h["role"] == "turbine"}
+            cfg = write_config(configs.plant_config(sc, self.desc, out, pids, self.clock_settings,
+                                                    open_ended=self.session is not None), self.out / "plant_config.json")
+            self.processes.start("plant", [self.python, "-m", "plant.service", "--config", str(cfg)], stdin=subprocess.PIPE)
+            # the plant sets t = 0 (wall time) once its model is built and warmed up
+            self.t0 = float(self.processes.wait_ready("plant", "plant_ready.json", "the plant")["t0_wall"])
         if self.cpu_split["applied"]:  # where each process may run (summary.json cpu_split.seen)
             self.cpu_split["seen"] = cpu_split.seen({n: p.pid for n, p in self.procs.items()})
         self.wall_started = self.clock.to_wall(self.t0)
@@ -260,46 +271,25 @@ class Run:
         return inner[hop % len(inner)] if inner else None
 
     def set_link(self, a: str, b: str, up: bool) -> float:
-        """Set the link a–b up or down; returns the run clock's reading just before its first end was changed.
-
-        The time is taken before the command (not after it returns, which is 1–3 ms later), so a
-        recovery time measured from it can only be over-, never under-estimated.
-
-        Each end is set with one ioctl in its namespace (switch ends: the root namespace); a veth
-        whose peer is down has no carrier, so the first end takes the link down at once."""
-        ends = self.impairments.link_ends(self.net, a, b)  # with an impairment element: its interfaces too
+        """Set the link a–b up or down (:func:`scenarios.switch_links.set_link`: both ends, the
+        run clock's reading before the first); a link to an external device: its root-namespace ends."""
+        ends = self.external.link_ends(a, b) or self.impairments.link_ends(self.net, a, b)
         if not ends:
             raise RunError(f"no link {a}-{b}")
-        state = "up" if up else "down"
-        if up:
-            self.links_down.discard(tuple(sorted((a, b))))
-        else:
-            self.links_down.add(tuple(sorted((a, b))))
-        if all(switch_links.is_patch(intf) for intf in ends):  # removed and restored (scenarios/switch_links.py)
-            t = time.time()
-            try:
-                switch_links.set_patch_link(ends, up)
-            except OSError as exc:
-                raise RunError(f"cannot set the patch link {a}-{b} {state}: {exc}") from exc
-            return self.clock.from_wall(t)
-        t_first = None
-        for intf in ends:
-            pid = None if intf.node in self.net.switches else intf.node.pid  # switch ends: root namespace
-            try:
-                t = set_link_up(intf.name, up, pid)
-            except OSError as exc:
-                raise RunError(f"cannot set {intf.name} {state}: {exc}") from exc
-            t_first = t_first or t
-        return self.clock.from_wall(t_first)
+        (self.links_down.discard if up else self.links_down.add)(tuple(sorted((a, b))))
+        try:
+            return self.clock.from_wall(switch_links.set_link(ends, up, self.net.switches))
+        except OSError as exc:
+            raise RunError(f"cannot set the link {a}-{b} {'up' if up else 'down'}: {exc}") from exc
 
     def play(self) -> None:
         """Play the timeline and show progress until the plant has run the scenario's duration."""
         pending = sorted(self.scenario.timeline, key=lambda e: e.t)
         tty = sys.stdout.isatty() and not self.quiet
         last_line = 0.0
-        plant = self.procs["plant"]
+        plant = self.procs.get("plant")  # None: a real external peer, nothing of ours keeps the time
         end = self.t0 + self.scenario.duration_s if self.session is None else float("inf")  # a session: until exit
-        while plant.poll() is None:
+        while plant.poll() is None if plant is not None else self.clock.now() < end:
             now = self.clock.now()
             if not self.cpu_at_start and now >= self.t0:
                 self.cpu_at_start = self.processes.cpu_seconds()  # from t = 0: start-up compiles left out
@@ -316,7 +306,7 @@ class Run:
                 self._progress(tty)
             wait = self.clock.wall_s(self.t0 + pending[0].t - self.clock.now()) if pending else 0.02
             time.sleep(min(0.02, max(0.0, wait)))
-        if plant.returncode != 0:
+        if plant is not None and plant.returncode != 0:
             raise RunError(f"plant exited with {plant.returncode}; see {self.out}/plant.log")
         self.wall_ended = time.time()
         cpu_at_end = {**self.cpu_at_controllers_stop, **self.processes.cpu_seconds()}
@@ -348,6 +338,7 @@ class Run:
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
             phase("mininet_stop")
+            self.external.remove()
             cleanup.clean()  # also undoes the CPU split and the switches' revalidation period
             phase("cleanup")
 

@@ -24,6 +24,7 @@ from typing import Annotated, Literal, get_args
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from plant.params import BatteryParams
+from scenarios.external_spec import ExternalSwitchSpec, PeerSpec
 from sdvisc.config import (
     BatterySoc,
     DelayMs,
@@ -54,6 +55,9 @@ class TopologySpec(Strict):
     turbines: int = Field(2, ge=1, le=100, description="turbines per cluster")
     layout: Literal["compact", "tower"] | None = Field(None, description="farm only; default compact")
     onshore_units: OnshoreUnits
+    external_switches: dict[str, ExternalSwitchSpec] = Field(default_factory=dict, description=(
+        "OpenFlow switches of this topology that Mininet does not build: hardware switches (or, emulated, plain "
+        "Open vSwitch bridges) the SDN app controls all the same (scenarios/external_spec.py)"))
 
     @model_validator(mode="after")
     def _layout_only_for_farm(self):
@@ -103,6 +107,13 @@ class PlantSpec(PlantOptions):
     configuration's ``batteries`` and ``battery_soc_init``)."""
 
     batteries: BatterySpec | None = Field(None, description="batteries on turbines' DC links (full model)")
+    peer: PeerSpec | None = Field(None, description="model external: the GTNET-SKT peer in place of the plant")
+
+    @model_validator(mode="after")
+    def _peer_with_external(self):
+        if (self.model == "external") != (self.peer is not None):
+            raise ValueError("plant.model: external needs plant.peer (the GTNET-SKT peer), and peer needs model external")
+        return self
 
     @field_validator("grid", "batteries", "p_star")
     @classmethod
@@ -336,6 +347,16 @@ class Scenario(Strict):
         "listed", description="links that get an impairment element (without netem): those in links and in "
                               "impair actions (listed), every switch-to-switch link (all), or these too")
     timeline: list[Event] = Field(default_factory=list, description="each t <= duration_s (checked by the loader)")
+
+    @model_validator(mode="after")
+    def _external_plant_time(self):
+        peer = self.plant.peer
+        if peer is not None and self.time_scale == "auto":
+            raise ValueError("time_scale: auto measures the run's plant; with an external peer give a number "
+                             "(1 for a real card: an RTDS runs in real time)")
+        if peer is not None and not peer.emulate and self.time_scale != 1:
+            raise ValueError(f"a real GTNET-SKT peer runs in real time: time_scale must be 1, not {self.time_scale}")
+        return self
 
     def turbines_named(self) -> list[str]:
         names = []

@@ -17,8 +17,11 @@ OFPPR_ADD), fast-failover buckets watching them go dead and live, as for a veth 
 from __future__ import annotations
 
 import subprocess
+import time
 
 from mininet.link import OVSIntf
+
+from sdvisc.netns import set_link_up
 
 SWITCH_LINK_KINDS = ("veth", "patch")
 
@@ -51,3 +54,27 @@ def set_patch_link(ends: list, up: bool) -> None:
     res = subprocess.run(cmd, capture_output=True, text=True, check=False)
     if res.returncode != 0:
         raise OSError(f"{' '.join(cmd)}: {res.stderr.strip()}")
+
+
+def set_link(ends: list, up: bool, switches) -> float:
+    """Set a link's ends up or down; returns the wall time just before the first end was changed
+    (taken before the command, not after it returns 1–3 ms later, so a recovery time measured from
+    it can only be over-, never under-estimated).
+
+    ``ends``: Mininet interfaces (with an impairment element: its interfaces too), or names of
+    root-namespace interfaces (a link to an external device, scenarios/external.py). Patch ports are
+    removed and restored (:func:`set_patch_link`); every other end is set with one ioctl in its
+    namespace (switch ends: the root namespace) — a veth whose peer is down has no carrier, so the
+    first end takes the link down at once."""
+    if all(is_patch(intf) for intf in ends):
+        t = time.time()
+        set_patch_link(ends, up)
+        return t
+    t_first = None
+    for intf in ends:
+        if isinstance(intf, str):
+            t = set_link_up(intf, up, None)
+        else:
+            t = set_link_up(intf.name, up, None if intf.node in switches else intf.node.pid)
+        t_first = t_first or t
+    return t_first

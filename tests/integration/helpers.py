@@ -54,7 +54,8 @@ def assert_no_leftovers() -> None:
     from host_tools.cleanup import leftovers
 
     left = leftovers()
-    assert left == {"processes": [], "bridges": [], "links": [], "cpu_split": [], "switch_revalidation": []}, \
+    assert left == {"processes": [], "bridges": [], "links": [], "netns": [], "cpu_split": [],
+                    "switch_revalidation": []}, \
         f"a run left things behind: {left}"
     # Mininet host shells are gone too (their network namespaces die with them)
     shells = subprocess.run(["pgrep", "-f", "mininet:"], capture_output=True, text=True).stdout.split()
