@@ -200,6 +200,11 @@ def test_a_fixed_remote_takes_its_port_and_always_streams_from_t0():
     assert {(i, addr) for i, kind, _, addr in sent if kind == "meas"} == {(0, FIXED), (1, FIXED)}
     assert always.model.mode.tolist() == [1, 0]  # remote from its first answer on
     assert always.summary()["turbines"]["wt1_1"]["ctrl_rx"] == 5
+    start(always, 0)  # redirected to the SDC it names ...
+    assert [addr for i, kind, _, addr in always.step(T0) if kind == "meas" and i == 0] == [(SDC, wire.PORT_SDC)]
+    always.receive(0, request(always, wire.Command.STREAM_STOP), (VIP, 50000), T0)  # ... and back: it never stops
+    assert [addr for i, kind, _, addr in always.step(T0) if kind == "meas" and i == 0] == [FIXED]
+    assert always.model.mode[0] == 0
 
 
 @pytest.mark.parametrize("change, key", [
