@@ -45,12 +45,13 @@ from sdvisc.vocabulary import MEAS_FIELDS
 
 REASONS: tuple[str, ...] = wire.REJECT_REASONS + (
     "flood", "unexpected_type", "unknown_turbine", "wrong_turbine", "not_from_controller", "bad_request",
-    "not_from_sdc", "future_seq", "out_of_range")
+    "not_from_sdc", "future_seq", "out_of_range", "internal")
 """Why a datagram was dropped: the wire's reasons (``length`` = wrong word count or size, ``type`` =
 unknown msg_type, ``nonfinite``, ``range``, ``field``), ``flood`` (beyond ``flood_limit_per_step`` on
 its port in one step, not decoded), ``unexpected_type`` (not CTRL/REQUEST), ``unknown_turbine`` (a
 ``wt`` no port of the card has), ``wrong_turbine`` (another port's turbine), ``not_from_controller``,
-``bad_request``, ``not_from_sdc``, ``future_seq``, ``out_of_range`` (as :mod:`plant.endpoint_rx`)."""
+``bad_request``, ``not_from_sdc``, ``future_seq``, ``out_of_range`` (as :mod:`plant.endpoint_rx`),
+``internal`` (handling it raised: a bug, counted, the card goes on)."""
 
 COUNTERS = ("meas_tx", "ctrl_rx", "ctrl_stale", "ak_tx", "ak_ones", "commands_rx", "tx_error", "meas_unencodable",
             "socket_error")
@@ -192,14 +193,23 @@ class CardCore:
         self.k = 0
         self._newest: dict[int, tuple[float, float, float, float]] = {}  # model index -> newest refs this step
         self._remote_once: set[int] = set()  # "always": turbines whose first CTRL made them remote
+        self.internal_error: str | None = None
 
     # ------------------------------------------------------------------ receive
     def _reject(self, port: CardPort, reason: str) -> None:
         port.rejected[reason] = port.rejected.get(reason, 0) + 1
 
     def receive(self, i: int, data: bytes, addr, now: float) -> None:
-        """One datagram that arrived on port ``i`` (index in ``cfg.turbines``) from ``addr``."""
+        """One datagram that arrived on port ``i`` (index in ``cfg.turbines``) from ``addr``; never
+        raises: a datagram whose handling fails is counted as ``internal`` (the first error kept)."""
         port = self.ports[i]
+        try:
+            self._receive(port, data, addr, now)
+        except Exception as error:  # bad input never stops the card
+            self._reject(port, "internal")
+            self.internal_error = self.internal_error or f"{type(error).__name__}: {error}"
+
+    def _receive(self, port: CardPort, data: bytes, addr, now: float) -> None:
         port.arrivals += 1
         if port.arrivals > self.cfg.flood_limit_per_step:
             self._reject(port, "flood")
@@ -340,4 +350,4 @@ class CardCore:
         totals["rejected"] = dict(sorted(by_reason.items()))
         return {"framing": self.cfg.framing, "stream": self.cfg.stream, "step_s": self.step_s, "steps": self.k,
                 "t_sim": self.k * self.step_s, "turbines": turbines, "totals": totals,
-                "wire": self.wire_stats.as_dict()}
+                "wire": self.wire_stats.as_dict(), "internal_error": self.internal_error}

@@ -173,6 +173,16 @@ def test_bad_input_is_dropped_and_counted_per_port_and_the_other_turbine_keeps_c
     assert summary["wire"]["length"] == 1 and summary["wire"]["type"] == 1
 
 
+def test_a_datagram_whose_handling_raises_is_counted_and_the_card_goes_on(monkeypatch):
+    core = make_core()
+    monkeypatch.setattr(core.model, "set_mode", lambda *_: 1 / 0)
+    start(core, 0)
+    core.receive(0, None, (VIP, 50000), T0)  # not even bytes
+    assert core.summary()["turbines"]["wt1_1"]["rejected"] == {"internal": 2}
+    assert core.summary()["internal_error"].startswith("ZeroDivisionError")
+    assert core.step(T0) is not None
+
+
 def test_requests_are_taken_only_from_the_controller_and_stop_ends_the_stream():
     core = make_core()
     core.receive(0, request(core, wire.Command.STREAM_START), ("10.0.0.99", 50000), T0)
