@@ -10,11 +10,13 @@ the gathering of one sample (:mod:`sdc_unit.gather`), the heartbeat timer, signa
 One SDC serves every turbine the SDN application assigns to it. Commands (``REQUEST``, only from
 the SDN app's address) start and stop a turbine's controller instance, set its parameters or make
 a backup take over, each answered by a ``REPLY``; every usable ``MEAS`` advances its turbine's
-controller by one step and is answered by one ``CTRL`` to the sender. The datagrams are handled in
-the order they were read: each MEAS is admitted (or dropped and counted) when it is reached, the
-admitted ones are stepped together (:func:`sdc_unit.round.answer`: one compiled call on the
-Tustin engine, whatever their number) before the next command and at the end. One admission path
-whatever the batch size (:meth:`SdcCore._admit`).
+controller by one step and is answered by one ``CTRL`` to the sender, its IP and UDP port (a
+GTNET-SKT card serves several turbines from one IP, one port each; the switches that mirror a MEAS
+to a backup or redirect it after a take-over rewrite only its destination). The datagrams are
+handled in the order they were read: each MEAS is admitted (or dropped and counted) when it is
+reached, the admitted ones are stepped together (:func:`sdc_unit.round.answer`: one compiled call
+on the Tustin engine, whatever their number) before the next command and at the end. One admission
+path whatever the batch size (:meth:`SdcCore._admit`).
 
 Backup role (``role: backup``): measurements mirrored to it for turbines it does not serve are
 followed but never answered. ``standby: track`` advances a full controller instance on every
@@ -387,4 +389,4 @@ class SdcCore:
                 inst.counts["ctrl_invalid"] += 1
                 continue
             inst.counts["ctrl_tx"] += 1
-            sends.append((data, (addr[0], wire.PORT_TURBINE), inst))
+            sends.append((data, addr, inst))  # to the MEAS's source, ip and port (one card, several turbines)

@@ -48,11 +48,12 @@ def second_leg(graph: nx.Graph, dpids: dict[str, int], path: list[str],
 
 
 def duplicate(graph: nx.Graph, dpids: dict[str, int], leg: list[str], flows: list,
-              sdc_ip: str, wt_ip: str, cookie: int) -> list:
-    """``flows`` (the path's, SDC first) with the second leg added: the SDC → turbine flow on ``A``
-    and the turbine → SDC flow on ``B`` also output into the leg; the leg's own switches forward
-    both directions."""
+              sdc_ip: str, wt: fl.Endpoint, cookie: int) -> list:
+    """``flows`` (the path's, SDC first; ``wt``: the turbine's endpoint, IP and UDP port) with the
+    second leg added: the SDC → turbine flow on ``A`` and the turbine → SDC flow on ``B`` also
+    output into the leg; the leg's own switches forward both directions."""
     a, b = leg[0], leg[-1]
+    wt_ip = wt[0]
     leg_hops = _leg_hops(graph, leg)
     extra_out = {(dpids[a], sdc_ip, wt_ip): leg_hops[0][2], (dpids[b], wt_ip, sdc_ip): leg_hops[-1][1]}
     out = []
@@ -65,8 +66,8 @@ def duplicate(graph: nx.Graph, dpids: dict[str, int], leg: list[str], flows: lis
         raise ValueError(f"path flows lack the leg's end flows {sorted(extra_out)}")
     for switch, toward_a, toward_b in leg_hops[1:-1]:
         dpid = dpids[switch]
-        out.append(fl.FlowAdd(dpid, fl.PRIORITY_PATH, fl.udp_match(sdc_ip, wt_ip), (fl.Output(toward_b),), cookie))
-        out.append(fl.FlowAdd(dpid, fl.PRIORITY_PATH, fl.udp_match(wt_ip, sdc_ip), (fl.Output(toward_a),), cookie))
+        out.append(fl.FlowAdd(dpid, fl.PRIORITY_PATH, fl.to_turbine(sdc_ip, wt), (fl.Output(toward_b),), cookie))
+        out.append(fl.FlowAdd(dpid, fl.PRIORITY_PATH, fl.from_turbine(wt, sdc_ip), (fl.Output(toward_a),), cookie))
     return out
 
 

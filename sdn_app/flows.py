@@ -120,22 +120,45 @@ def intake_flows(dpid: int, intake_port: int, senders: list[tuple[int, str, str]
             for port, mac, ip in senders]
 
 
-def udp_match(src_ip: str, dst_ip: str) -> dict:
-    return {"eth_type": ETH_TYPE_IPV4, "ip_proto": IP_PROTO_UDP, "ipv4_src": src_ip, "ipv4_dst": dst_ip}
+def udp_match(src_ip: str, dst_ip: str, *, udp_src: int | None = None, udp_dst: int | None = None) -> dict:
+    """UDP from ``src_ip`` to ``dst_ip``; with ``udp_src``/``udp_dst`` also those UDP ports."""
+    match = {"eth_type": ETH_TYPE_IPV4, "ip_proto": IP_PROTO_UDP, "ipv4_src": src_ip, "ipv4_dst": dst_ip}
+    if udp_src is not None:
+        match["udp_src"] = udp_src
+    if udp_dst is not None:
+        match["udp_dst"] = udp_dst
+    return match
 
 
-def path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int], a_ip: str, b_ip: str,
+Endpoint = tuple[str, int]
+"""A turbine's endpoint: (IP, UDP port). A GTNET-SKT card serves several turbines from one IP, one
+port each, so a turbine's flows match its port too and two turbines of one card get independent
+flows."""
+
+
+def from_turbine(wt: Endpoint, dst_ip: str) -> dict:
+    """The turbine's packets (from its endpoint) to ``dst_ip``."""
+    return udp_match(wt[0], dst_ip, udp_src=wt[1])
+
+
+def to_turbine(src_ip: str, wt: Endpoint) -> dict:
+    """Packets from ``src_ip`` to the turbine's endpoint."""
+    return udp_match(src_ip, wt[0], udp_dst=wt[1])
+
+
+def path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int], sdc_ip: str, wt: Endpoint,
                cookie: int) -> list[FlowAdd]:
-    """Both directions of a path given as (switch, port toward a, port toward b) hops."""
+    """Both directions of a path between an SDC and a turbine's endpoint, given as (switch, port
+    toward the SDC, port toward the turbine) hops."""
     flows = []
-    for switch, toward_a, toward_b in hops:
+    for switch, toward_sdc, toward_wt in hops:
         dpid = dpids[switch]
-        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(a_ip, b_ip), (Output(toward_b),), cookie))
-        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(b_ip, a_ip), (Output(toward_a),), cookie))
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, to_turbine(sdc_ip, wt), (Output(toward_wt),), cookie))
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, from_turbine(wt, sdc_ip), (Output(toward_sdc),), cookie))
     return flows
 
 
-def substitute_path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int], sub: dict, wt_ip: str,
+def substitute_path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int], sub: dict, wt: Endpoint,
                           addressed: dict, cookie: int) -> list[FlowAdd]:
     """Flows that let a turbine keep addressing ``addressed`` (ip, mac) while ``sub`` (ip, mac) serves it.
 
@@ -148,20 +171,20 @@ def substitute_path_flows(hops: list[tuple[str, int, int]], dpids: dict[str, int
     for i, (switch, toward_sub, toward_wt) in enumerate(hops):
         dpid = dpids[switch]
         up = (Output(toward_sub),)
-        down_match = udp_match(addressed["ip"], wt_ip)
+        down_match = to_turbine(addressed["ip"], wt)
         if i == 0:
             up = (SetField("eth_dst", sub["mac"]), SetField("ipv4_dst", sub["ip"]), Output(toward_sub))
-            down_match = udp_match(sub["ip"], wt_ip)
+            down_match = to_turbine(sub["ip"], wt)
             down = (SetField("eth_src", addressed["mac"]), SetField("ipv4_src", addressed["ip"]), Output(toward_wt))
         else:
             down = (Output(toward_wt),)
-        flows.append(FlowAdd(dpid, PRIORITY_PATH, udp_match(wt_ip, addressed["ip"]), up, cookie))
+        flows.append(FlowAdd(dpid, PRIORITY_PATH, from_turbine(wt, addressed["ip"]), up, cookie))
         flows.append(FlowAdd(dpid, PRIORITY_PATH, down_match, down, cookie))
     return flows
 
 
 def mirror_flows(hops_to_mirror: list[tuple[str, int, int]], dpids: dict[str, int], primary_flow: FlowAdd,
-                 mirror: dict, wt_ip: str, cookie: int) -> list[FlowAdd]:
+                 mirror: dict, wt: Endpoint, cookie: int) -> list[FlowAdd]:
     """Copy a turbine's packets to a warm standby ``mirror`` (ip, mac).
 
     ``primary_flow`` is the upstream flow on the switch where the copy leaves (it keeps its own
@@ -173,7 +196,7 @@ def mirror_flows(hops_to_mirror: list[tuple[str, int, int]], dpids: dict[str, in
     flows = [FlowAdd(primary_flow.dpid, primary_flow.priority, primary_flow.match, primary_flow.actions + copy,
                      cookie)]
     for switch, _, toward_mirror in hops_to_mirror[1:]:
-        flows.append(FlowAdd(dpids[switch], PRIORITY_PATH, udp_match(wt_ip, mirror["ip"]), (Output(toward_mirror),),
+        flows.append(FlowAdd(dpids[switch], PRIORITY_PATH, from_turbine(wt, mirror["ip"]), (Output(toward_mirror),),
                              cookie))
     return flows
 

@@ -52,6 +52,7 @@ class Controller:
             wire.MsgType.HEARTBEAT: self.guard.on_heartbeat,
         }
         # the intake socket's senders by IP: (MAC, OpenFlow attachment), as the switches' intake flows check them
+        # (the turbines of one GTNET-SKT card share all three: one sender; its AKs name the turbine)
         self._intake_senders = ({h.ip: (h.mac, (self.dpids[h.switch], h.port)) for h in config.topology.hosts.values()
                                  if h.switch in config.topology.intake_ports and h.switch in self.dpids}
                                 if config.intake_socket is not None else {})
@@ -110,21 +111,20 @@ class Controller:
 
     def _turbine_port(self, switch: str, port: int, up: bool, now: float) -> list:
         """A turbine's own access port changed: plug-and-play in T1 (rows removed on unplug and
-        restored from the topology on plug); a turbine unplugged while in ViSC loses its path."""
+        restored from the topology on plug); a turbine unplugged while in ViSC loses its path. A
+        card serving several turbines from that port takes all of them along."""
         st = self.state
-        name = st.turbine_at(switch, port)
-        if name is None:
-            return []
         actions: list = []
-        if not up and name in st.tables.t1:
-            actions += self.routing.remove(name)
-            st.dr.stop(name)
-            self.recovery.forget(name)
-            st.tables.unplug(name)
-            st.event(now, "turbine_unplugged", wt=name, switch=switch, port=port)
-        elif up and name not in st.tables.t1:
-            st.plug(name)
-            st.event(now, "turbine_plugged", wt=name, switch=switch, port=port)
+        for name in st.turbines_at(switch, port):
+            if not up and name in st.tables.t1:
+                actions += self.routing.remove(name)
+                st.dr.stop(name)
+                self.recovery.forget(name)
+                st.tables.unplug(name)
+                st.event(now, "turbine_unplugged", wt=name, switch=switch, port=port)
+            elif up and name not in st.tables.t1:
+                st.plug(name)
+                st.event(now, "turbine_plugged", wt=name, switch=switch, port=port)
         return actions
 
     # ------------------------------------------------------------------ the timer

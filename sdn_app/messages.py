@@ -99,4 +99,4 @@ class Messenger:
         wid = st.wid(name)
         params = st.paths[name].params if name in st.paths else {}
         return (self.command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params, sdc=sdc)
-                + self.command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_START, wid))
+                + self.command(now, name, st.endpoint(name)[1], wire.Command.STREAM_START, wid))

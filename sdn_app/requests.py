@@ -74,7 +74,7 @@ class Requests:
         st.paths[name].params = params
         st.event(now, "visc_on", wt=name, sdc=sdc, path=path, flows=st.counters["flow_mods"])
         actions += self.messenger.command(now, sdc, wire.PORT_SDC, wire.Command.START_INSTANCE, wid, params)
-        actions += self.messenger.command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_START, wid)
+        actions += self.messenger.command(now, name, st.endpoint(name)[1], wire.Command.STREAM_START, wid)
         actions += reply(now, req_id, wire.Status.OK, wid, cmd)
         return actions
 
@@ -84,7 +84,7 @@ class Requests:
         if not st.tables.in_visc(name):
             return reply(now, req_id, wire.Status.OK, wid, cmd, detail=1)
         sdc = st.paths[name].sdc if name in st.paths else st.active_sdc
-        actions = self.messenger.command(now, name, wire.PORT_TURBINE, wire.Command.STREAM_STOP, wid)
+        actions = self.messenger.command(now, name, st.endpoint(name)[1], wire.Command.STREAM_STOP, wid)
         actions += self.messenger.command(now, sdc, wire.PORT_SDC, wire.Command.STOP_INSTANCE, wid)
         actions += self.routing.remove(name)
         st.dr.stop(name)

@@ -32,15 +32,18 @@ class Routing:
 
     # ------------------------------------------------------------------ flows of a path
     def flows_for(self, active: ActivePath) -> list:
+        """A path's flows: both directions between the SDC and the turbine's endpoint (its IP and
+        UDP port, :meth:`sdn_app.state.SdnState.endpoint`), so the turbines of one card never share
+        a flow, a cookie or a group."""
         st = self.state
-        wt_ip = st.tables.t1[active.wt].ip
+        wt = st.endpoint(active.wt)
         if active.sdc == st.config.primary_sdc:
-            flows = fl.path_flows(hops(st.graph, active.path), st.dpids, st.host(active.sdc).ip, wt_ip, active.cookie)
+            flows = fl.path_flows(hops(st.graph, active.path), st.dpids, st.host(active.sdc).ip, wt, active.cookie)
             flows = self._duplicate(active, self._guard_ingress(active, flows))
             return self._protect(active, flows + self._mirror_flows(active, flows))
         # served by a substitute SDC while addressing the primary's address
         return self._guard_ingress(active, fl.substitute_path_flows(
-            hops(st.graph, active.path), st.dpids, st.addr(active.sdc), wt_ip,
+            hops(st.graph, active.path), st.dpids, st.addr(active.sdc), wt,
             st.addr(st.config.primary_sdc), active.cookie))
 
     def addressed_sdc(self) -> str:
@@ -61,17 +64,17 @@ class Routing:
         st = self.state
         if not st.config.fast_failover:
             return flows
-        sdc_ip, wt_ip = st.host(active.sdc).ip, st.tables.t1[active.wt].ip
+        sdc_ip, wt = st.host(active.sdc).ip, st.endpoint(active.wt)
         path = active.path if active.path[0] == active.sdc else list(reversed(active.path))
         groups, detours, out = [], [], list(flows)
-        for direction, (src, dst) in ((path, (sdc_ip, wt_ip)), (list(reversed(path)), (wt_ip, sdc_ip))):
-            replace, g, d = protect_direction(st.graph, st.dpids, direction, fl.udp_match(src, dst),
+        for direction, match in ((path, fl.to_turbine(sdc_ip, wt)), (list(reversed(path)), fl.from_turbine(wt, sdc_ip))):
+            replace, g, d = protect_direction(st.graph, st.dpids, direction, match,
                                               active.cookie, st.down_links, self._next_group_id)
             groups += g
             detours += d
             by_dpid = {st.dpids[x]: acts for x, acts in replace.items()}
             for k, f in enumerate(out):
-                if (f.dpid in by_dpid and f.match.get("ipv4_src") == src and f.match.get("ipv4_dst") == dst
+                if (f.dpid in by_dpid and match.items() <= f.match.items()
                         and len(f.actions) == 1 and isinstance(f.actions[0], fl.Output)):
                     out[k] = fl.FlowAdd(f.dpid, f.priority, f.match, by_dpid[f.dpid], f.cookie)
         active.groups = [(g.dpid, g.group_id) for g in groups]
@@ -95,7 +98,7 @@ class Routing:
                      down_links=sorted(sorted(k) for k in st.down_links))
             return flows
         st.counters["duplicated"] += 1
-        return duplicate(st.graph, st.dpids, leg, flows, st.host(active.sdc).ip, st.tables.t1[active.wt].ip,
+        return duplicate(st.graph, st.dpids, leg, flows, st.host(active.sdc).ip, st.endpoint(active.wt),
                          active.cookie)
 
     def _guard_ingress(self, active: ActivePath, flows: list) -> list:
@@ -133,7 +136,7 @@ class Routing:
             return []
         hop_list = [(to_backup[0], 0, st.graph.edges[to_backup[0], to_backup[1]]["ports"][to_backup[0]])]
         hop_list += hops(st.graph, to_backup)
-        mirrored = fl.mirror_flows(hop_list, st.dpids, upstream, st.addr(backup), st.tables.t1[active.wt].ip,
+        mirrored = fl.mirror_flows(hop_list, st.dpids, upstream, st.addr(backup), st.endpoint(active.wt),
                                    active.cookie)
         # the mirror flow replaces the plain upstream flow on the first switch (same match, same priority)
         flows.remove(upstream)

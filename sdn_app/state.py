@@ -85,14 +85,20 @@ class SdnState:
     def plug(self, name: str) -> None:
         """Put a turbine of the topology into T1 (T2 from the configuration)."""
         h = self.host(name)
-        self.tables.plug(TurbineAddress(name, h.cluster or 0, h.number or 0, h.ip, h.mac, h.switch, h.port),
-                         visc_enabled=name not in self.config.visc_disabled)
+        self.tables.plug(TurbineAddress(name, h.cluster or 0, h.number or 0, h.ip, h.mac, h.switch, h.port,
+                                        h.udp_port), visc_enabled=name not in self.config.visc_disabled)
         self.refresh_link_ok(name)
 
-    def turbine_at(self, switch: str | None, port: int) -> str | None:
-        """The turbine whose access port is ``switch``:``port``, if any."""
-        return next((n for n, h in self.config.topology.hosts.items()
-                     if h.role == "turbine" and h.switch == switch and h.port == port), None)
+    def endpoint(self, name: str) -> tuple[str, int]:
+        """A turbine's endpoint in T1: (IP, UDP port). Its path flows match both, so the turbines of
+        one GTNET-SKT card (one IP, a port each) have independent paths."""
+        row = self.tables.t1[name]
+        return row.ip, row.udp_port
+
+    def turbines_at(self, switch: str | None, port: int) -> list[str]:
+        """The turbines whose access port is ``switch``:``port`` (several: one card serving them)."""
+        return [n for n, h in self.config.topology.hosts.items()
+                if h.role == "turbine" and h.switch == switch and h.port == port]
 
     def wrong_ingress(self, host: str, where: tuple[int, int] | None) -> bool:
         """True if a packet claiming to come from ``host`` entered the network elsewhere than its

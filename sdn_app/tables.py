@@ -1,6 +1,7 @@
 """The SDN application's three lookup tables (paper Section III-B-2), pure data with checked transitions.
 
-* **T1** turbine → IP, MAC and attachment (switch, port);
+* **T1** turbine → IP, MAC, attachment (switch, port) and the UDP port of its endpoint (turbines of
+  one GTNET-SKT card share the IP, MAC and attachment, each on its own UDP port);
 * **T2** operating mode ``x/y``: ``x`` current mode (1 = ViSC), ``y`` ViSC enabled; ``1/0`` is impossible;
 * **T3** communication state ``x/y``: ``x`` communication with the SDC on, ``y`` a link meeting the
   requirement exists.
@@ -9,6 +10,8 @@
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass
+
+from sdvisc.wire_layouts import PORT_TURBINE
 
 
 class TableError(ValueError):
@@ -26,6 +29,7 @@ class TurbineAddress:
     mac: str
     switch: str
     port: int
+    udp_port: int = PORT_TURBINE
 
 
 @dataclass(frozen=True)

@@ -28,6 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from sdvisc.clock import Clock
 from sdvisc.vocabulary import MAX_ONSHORE_UNITS, TURBINE_PATTERN, VISC_PARAMS
+from sdvisc.wire_layouts import PORT_TURBINE
 from sdvisc.yaml_lines import line_of
 
 CONTROLLER_VIP = "10.0.0.254"
@@ -256,6 +257,9 @@ class HostInfo(_Config):
     port: int
     cluster: int | None = None
     number: int | None = None
+    udp_port: int = Field(PORT_TURBINE, ge=1, le=65535, description=(
+        "the UDP port the turbine's endpoint listens on and sends from (a GTNET-SKT card serving "
+        "several turbines from one IP: one port each)"))
 
 
 class LinkInfo(_Config):

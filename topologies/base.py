@@ -19,6 +19,8 @@ from mininet.node import Host, OVSBridge, OVSSwitch, RemoteController
 from mininet.topo import Topo
 from mininet.util import naturalSeq
 
+from sdvisc.wire_layouts import PORT_TURBINE
+
 NET_PREFIX_LEN = 16
 SERVICE_HOSTS = {
     "owfcc": ("10.0.0.10", "02:00:00:00:00:0a"),
@@ -205,7 +207,8 @@ def describe(topo: Topo) -> dict:
 
     Returns ``{"switches": {name: {"dpid", "openflow"}}, "hosts": {name: {"ip", "mac", "role",
     "switch", "port", ...}}, "links": [{"a", "a_port", "b", "b_port"}]}`` where ``links`` lists
-    switch-to-switch links only and host entries name the switch port they hang on; with an intake
+    switch-to-switch links only and host entries name the switch port they hang on (a turbine's also
+    its ``cluster``, ``number`` and ``udp_port``, here always ``PORT_TURBINE``); with an intake
     network also ``"intake_ports": {switch: port toward it}`` (its bridge and host are left out). A link with
     an impairment element is one link ``a–b`` between the switches' ports toward the element
     (plus ``"element": name``); the element is not a host of the description.
@@ -244,6 +247,7 @@ def describe(topo: Topo) -> dict:
         if entry["role"] == "turbine":
             entry["cluster"] = hinfo["cluster"]
             entry["number"] = hinfo["number"]
+            entry["udp_port"] = hinfo.get("udp_port", PORT_TURBINE)  # one host, one endpoint: the default
         hosts[host] = entry
     for element, ports in element_ports.items():
         info = topo.nodeInfo(element)

@@ -70,7 +70,7 @@ def test_a_meas_is_answered_by_one_ctrl_stamped_now(tmp_path):
     (data, addr, owner), = out.sends
     msg = wire.decode(data, header=True)
     assert msg.type == wire.MsgType.CTRL and (msg["wt"], msg["seq"], msg["meas_seq"]) == (101, 1, 1)
-    assert addr == (TURBINE[0], wire.PORT_TURBINE) and owner is c.instances[101]
+    assert addr == TURBINE and owner is c.instances[101]  # to the MEAS's source, ip and port
     assert (msg.header.seq, msg.header.sec, msg.header.nsec) == (1, 12, 250_000_000)
     # bumpless start: the first output is the converter voltage the turbine applies
     assert msg["v_ref_d"] == pytest.approx(1.0 + 0.003 * 0.5 + 0.08 * 0.1, abs=2e-3)

@@ -67,17 +67,18 @@ def test_service_answers_every_usable_measurement_once(turbine_socket, tmp_path)
         tx.sendto(_request(wire.Command.START_INSTANCE, 101, 1), dst)
         tx.sendto(_request(wire.Command.START_INSTANCE, 102, 2), dst)
         time.sleep(0.05)
+        wt = turbine_socket  # the turbine sends from the port it listens on: the SDC answers the source
         nan = bytearray(_meas(101, 4))
         struct.pack_into(">f", nan, 4 * (3 + 4), float("nan"))  # v_d := NaN
         for seq in range(1, 4):
-            tx.sendto(_meas(101, seq), dst)
-            tx.sendto(_meas(102, seq, p=0.3), dst)
-        tx.sendto(bytes(nan), dst)  # dropped, counted
-        tx.sendto(_meas(101, 2), dst)  # stale: dropped, counted
+            wt.sendto(_meas(101, seq), dst)
+            wt.sendto(_meas(102, seq, p=0.3), dst)
+        wt.sendto(bytes(nan), dst)  # dropped, counted
+        wt.sendto(_meas(101, 2), dst)  # stale: dropped, counted
         after_loss = _meas(101, 6)
-        tx.sendto(after_loss, dst)  # 4 and 5 lost
-        tx.sendto(_meas(103, 1), dst)  # no instance: not answered
-        tx.sendto(b"\x00" * 10, dst)  # malformed
+        wt.sendto(after_loss, dst)  # 4 and 5 lost
+        wt.sendto(_meas(103, 1), dst)  # no instance: not answered
+        wt.sendto(b"\x00" * 10, dst)  # malformed
         ctrl = _collect(turbine_socket)
         tx.close()
     finally:
