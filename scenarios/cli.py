@@ -1,4 +1,5 @@
-"""The ``sdvisc`` command: ``run``, ``check``, ``clean``, ``pcap``, ``report``."""
+"""The ``sdvisc`` command: ``run``, ``check``, ``clean``, ``pcap``, ``report``; the services on their own
+(``sdc``, ``sdn-app``, ``owfcc``, ``gtnet-card``, ``owfcc-send``: scenarios/cli_services.py)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from scenarios.cli_services import add_parsers as add_service_parsers
 from scenarios.summary import ADVICE_VERDICT
 from scenarios.switch_links import SWITCH_LINK_KINDS
 from scenarios.switch_ports import SWITCH_PORT_TYPES
@@ -172,7 +174,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["report"]:  # its options are the report's own (argparse's REMAINDER would stop at --only)
         return _cmd_report(argv[1:])
-    parser = argparse.ArgumentParser(prog="sdvisc", description="SDViSC testbed: run and check scenarios")
+    parser = argparse.ArgumentParser(prog="sdvisc", description="SDViSC testbed: run and check scenarios; "
+                                     "start one service on its own (docs/real-devices.md)")
     sub = parser.add_subparsers(dest="command", required=True)
     p = sub.add_parser("run", help="run a scenario on Mininet + Open vSwitch + os-ken")
     p.add_argument("scenario", nargs="?", help=f"scenario YAML (default {DEFAULT_SCENARIO.name})")
@@ -217,6 +220,7 @@ def main(argv: list[str] | None = None) -> int:
     p = sub.add_parser("report", help="reproduce the paper's Section IV: figures and claims in one page "
                                       "([--quick] [--only F4,C2] [--out DIR]; docs/report.md)")
     p.add_argument("rest", nargs=argparse.REMAINDER)
+    add_service_parsers(sub)  # sdc, sdn-app, owfcc, gtnet-card, owfcc-send: one service outside Mininet
     args = parser.parse_args(argv)
     return args.func(args)
 
