@@ -28,7 +28,9 @@ from pydantic import BaseModel, Field, field_validator, model_validator
 
 from plant.endpoint_rx import MAX_REF_PU, TURBINE_COMMANDS, is_unicast_word
 from plant.endpoint_tx import MeasPacker
+from plant.gtnet_card_faults import Misbehaviour, bad_datagrams
 from plant.minimal import MinimalPlant
+from plant.service_core import CTRL_GAP_STEPS, MAX_CTRL_GAPS
 from sdvisc import wire
 from sdvisc.config import (
     CONTROLLER_VIP,
@@ -120,6 +122,8 @@ class GtnetCardConfig(ClockSettings, OutputDir):
     flood_limit_per_step: int = Field(32, ge=1, le=100_000, description=(
         "datagrams one port takes per step; the rest of that step's arrivals are dropped (flood)"))
     spin_us: float = _same_as(ImpairNodeConfig, "spin_us")
+    misbehave: list[Misbehaviour] = Field(default_factory=list, description=(
+        "bursts of bad datagrams toward the SDC, on purpose (plant.gtnet_card_faults): a faulty card"))
 
     @field_validator("bind_ip", "controller_vip")
     @classmethod
@@ -168,6 +172,11 @@ class CardPort:
     arrivals: int = 0  # datagrams taken in the current step
     counts: dict = field(default_factory=lambda: dict.fromkeys(COUNTERS, 0))
     rejected: dict = field(default_factory=dict)
+    first_meas_tx_t: float | None = None  # card time (k * step_s) of the first MEAS
+    first_ctrl_rx_t: float | None = None  # ... of the first and the last CTRL applied
+    last_ctrl_rx_t: float | None = None
+    ctrl_gaps: list = field(default_factory=list)  # (clock before, clock after) pauses between CTRLs > CTRL_GAP_STEPS
+    misbehaved_tx: int = 0  # bad datagrams sent on purpose (misbehave)
 
 
 class CardCore:
@@ -265,7 +274,13 @@ class CardCore:
             return
         port.ctrl_seq = meas_seq
         port.counts["ctrl_rx"] += 1
+        if port.last_ctrl_t > float("-inf") and now - port.last_ctrl_t > CTRL_GAP_STEPS * self.step_s \
+                and len(port.ctrl_gaps) < MAX_CTRL_GAPS:
+            port.ctrl_gaps.append((port.last_ctrl_t, now))
         port.last_ctrl_t = now
+        port.last_ctrl_rx_t = self.k * self.step_s
+        if port.first_ctrl_rx_t is None:
+            port.first_ctrl_rx_t = port.last_ctrl_rx_t
         if self.always and port.index not in self._remote_once:  # no STREAM_START: the first answer
             self._remote_once.add(port.index)
             self.model.set_mode(port.index, "remote")
@@ -286,8 +301,9 @@ class CardCore:
         for port in self.ports:
             port.arrivals = 0
         streaming = [p for p in self.ports if p.streaming and p.sdc_addr is not None]
+        bad = self._misbehave(streaming)
         if not streaming:
-            return []
+            return bad
         meas = self.model.measurements()
         columns = [meas[key] for key in MEAS_FIELDS]
         t_sim = self.k * self.step_s
@@ -305,10 +321,25 @@ class CardCore:
             else:
                 port.counts["meas_tx"] += 1
                 out.append((i, "meas", data, port.sdc_addr))
+                if port.first_meas_tx_t is None:
+                    port.first_meas_tx_t = t_sim
             ak = int(now - port.last_ctrl_t <= self.cfg.ak_window_s)
             if periodic or ak != port.last_ak_sent:
                 aks.append((i, "ak", self._ak(port, ak, now, sec, nsec), self.ak_addr))
-        return out + aks
+        return out + aks + bad
+
+    def _misbehave(self, streaming: list[CardPort]) -> list:
+        """The bursts of bad datagrams due in this step (``misbehave``), from streaming ports only."""
+        due = [m for m in self.cfg.misbehave if round(m.t_s / self.step_s) == self.k]
+        out = []
+        for m in due:
+            port = next((p for p in streaming if p.name == m.turbine), None)
+            if port is None:
+                continue
+            for data in bad_datagrams(m.kind, m.count, port.wid, port.meas_seq, self.k * self.step_s, self.header):
+                out.append((port.index, "bad", data, port.sdc_addr))
+            port.misbehaved_tx += m.count
+        return out
 
     def _ak(self, port: CardPort, ak: int, now: float, sec: int, nsec: int) -> bytes:
         port.ak_seq += 1
@@ -322,9 +353,12 @@ class CardCore:
 
     def send_failed(self, i: int, kind: str) -> None:
         """The socket refused a datagram :meth:`step` returned: not counted as sent, but as ``tx_error``."""
-        counts = self.ports[i].counts
-        counts["meas_tx" if kind == "meas" else "ak_tx"] -= 1
-        counts["tx_error"] += 1
+        port = self.ports[i]
+        if kind == "bad":
+            port.misbehaved_tx -= 1
+        else:
+            port.counts["meas_tx" if kind == "meas" else "ak_tx"] -= 1
+        port.counts["tx_error"] += 1
 
     def socket_error(self, i: int) -> None:
         """Port ``i``'s socket reported an error instead of a datagram."""
@@ -340,7 +374,10 @@ class CardCore:
                 "wid": p.wid, "port": p.port, "streaming": p.streaming,
                 "sdc": f"{p.sdc_addr[0]}:{p.sdc_addr[1]}" if p.sdc_addr else None, **p.counts,
                 "rejected": dict(sorted(p.rejected.items())), "rejected_total": sum(p.rejected.values()),
-                "mode": "remote" if modes[p.index] == 1 else "grid_following",
+                "mode": "remote" if modes[p.index] == 1 else "grid_following", "misbehaved_tx": p.misbehaved_tx,
+                "first_meas_tx_t": p.first_meas_tx_t, "first_ctrl_rx_t": p.first_ctrl_rx_t,
+                "last_ctrl_rx_t": p.last_ctrl_rx_t, "ctrl_gaps_wall": p.ctrl_gaps,
+                "last_ctrl_wall": p.last_ctrl_t if p.last_ctrl_t > float("-inf") else None,
                 "fallbacks": int(self.model.fallbacks[p.index]), "trips": int(self.model.trips[p.index])}
         totals: dict = {key: sum(t[key] for t in turbines.values()) for key in (*COUNTERS, "rejected_total")}
         by_reason: dict[str, int] = {}

@@ -310,3 +310,44 @@ def test_the_program_streams_on_loopback_and_writes_its_stats_on_sigterm(tmp_pat
         assert t["meas_tx"] > 0 and t["ctrl_rx"] > 0 and t["commands_rx"] == 1 and t["ak_tx"] > 0
     assert stats["turbines"]["wt1_1"]["rejected"] == {"length": 1}
     assert stats["totals"]["rejected"] == {"length": 1}
+
+
+def test_a_misbehaving_card_sends_its_bursts_once_from_the_named_port_and_counts_them():
+    """``misbehave``: a faulty card on purpose (plant.gtnet_card_faults) — the bursts leave the named
+    turbine's port toward its SDC at their step, each kind as documented, and are counted apart."""
+    core = make_core(misbehave=[{"t_s": 0.005, "turbine": "wt1_2", "kind": "wrong_word_count", "count": 3},
+                                {"t_s": 0.006, "turbine": "wt1_2", "kind": "unknown_turbine", "count": 2},
+                                {"t_s": 0.007, "turbine": "wt1_1", "kind": "flood", "count": 50}])
+    start(core)
+    out = []
+    for _ in range(10):
+        out += [(core.k, *o) for o in core.step(T0 + core.k * STEP)]
+    bad = [(k, i, data, addr) for k, i, kind, data, addr in out if kind == "bad"]
+    meas_words = wire.word_count(wire.MsgType.MEAS, header=True)
+    wrong = [b for b in bad if len(b[2]) == 4 * (meas_words + 1)]
+    assert len(wrong) == 3 and {b[1] for b in wrong} == {1} and {b[3] for b in wrong} == {(SDC, wire.PORT_SDC)}
+    unknown = [wire.decode(b[2], header=True) for b in bad if b not in wrong and b[1] == 1]
+    assert len(unknown) == 2 and {m["wt"] for m in unknown} == {wire.turbine_id(49, 99)}
+    flood = [wire.decode(b[2], header=True) for b in bad if b[1] == 0]
+    assert len(flood) == 50 and {m["wt"] for m in flood} == {101}
+    assert len({b[0] for b in bad}) == 3  # three steps, each burst once
+    stats = core.summary()["turbines"]
+    assert (stats["wt1_1"]["misbehaved_tx"], stats["wt1_2"]["misbehaved_tx"]) == (50, 5)
+    assert stats["wt1_1"]["meas_tx"] == stats["wt1_2"]["meas_tx"] == 10  # the MEAS stream is not touched
+
+
+def test_a_pause_in_the_answers_is_recorded_for_the_runs_recovery_times():
+    """The summary's recoveries read the card's CTRL gaps (clock before, clock after) and its last CTRL,
+    as the plant's: a pause of 20 steps gives one gap spanning it; the first/last CTRL times follow."""
+    core = make_core()
+    start(core)
+    run(core, 10)
+    run(core, 20, answer=lambda port, msg: port == 1)  # wt1_1 unanswered
+    run(core, 10)
+    stats = core.summary()["turbines"]
+    (gap,) = stats["wt1_1"]["ctrl_gaps_wall"]
+    assert gap[1] - gap[0] == pytest.approx(21 * STEP, abs=STEP / 2)
+    assert stats["wt1_2"]["ctrl_gaps_wall"] == []
+    assert stats["wt1_1"]["first_ctrl_rx_t"] == pytest.approx(1 * STEP)
+    assert stats["wt1_1"]["last_ctrl_rx_t"] == pytest.approx(40 * STEP)  # card time after the step it answers
+    assert stats["wt1_1"]["last_ctrl_wall"] == pytest.approx(T0 + 39 * STEP + STEP / 2)
