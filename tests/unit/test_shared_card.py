@@ -120,6 +120,19 @@ def test_the_card_s_turbines_share_their_t1_address_but_not_their_port():
 
 
 # ---------------------------------------------------------------- paths
+def test_one_host_per_turbine_its_flows_match_the_turbine_port():
+    """The normal case: the same paths as ever, the flows now also match PORT_TURBINE."""
+    ctl = Controller(AppConfig.model_validate({"topology": describe(topos["paper"](clusters=1, turbines=2)),
+                                               "backup_sdc": None}), now=0.0)
+    adds = flow_adds(owfcc_says(ctl, wire.Command.VISC_ON, "wt1_1", 1.0))
+    assert len(adds) == 4 and ctl.paths["wt1_1"].path == ["sdc1", "s1", "s3", "l2", "wt1_1"]
+    up = [a for a in adds if a.match["ipv4_src"] == "10.0.1.1"]
+    down = [a for a in adds if a.match["ipv4_dst"] == "10.0.1.1"]
+    assert len(up) == len(down) == 2
+    assert all(a.match["udp_src"] == wire.PORT_TURBINE and "udp_dst" not in a.match for a in up)
+    assert all(a.match["udp_dst"] == wire.PORT_TURBINE and "udp_src" not in a.match for a in down)
+
+
 @pytest.mark.parametrize("options", [{}, {"backup_sdc": None}, {"fast_failover": True},
                                      {"duplicate_paths": True, "backup_sdc": None}],
                          ids=["mirror", "plain", "fast_failover", "duplicate_paths"])
