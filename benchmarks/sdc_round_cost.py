@@ -10,7 +10,7 @@ CTRL encoding; then the ``sendto`` calls), either
   taken by an in-memory socket -- the service's Python and numpy work only; or
 * ``socket: "udp"`` (``--udp``): over loopback UDP (no Mininet): a sender socket on 127.0.8.1 sends
   each round's MEAS to the service socket, the service reads them with its ``wake`` (the
-  ``recvfrom`` loop) and sends the CTRL to a sink on 127.0.8.1:``wire.PORT_TURBINE``.
+  ``recvfrom`` loop) and sends the CTRL back to the sender on 127.0.8.1:``wire.PORT_TURBINE`` (where the MEAS came from).
 
 Rounds: ``single`` = each datagram is its own round (what the service does when the turbines' MEAS
 arrive apart, the usual case with few turbines); ``batch`` = the N MEAS of one sample in one round.
@@ -153,12 +153,11 @@ def run_udp(n: int, mode: str, rounds: int, warm: int) -> dict:
     rx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 21)
     rx.bind(("127.0.0.1", 0))
     rx.setblocking(False)
-    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    tx.bind((SENDER_IP, 0))
-    sink = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    sink.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)
-    sink.bind((SENDER_IP, wire.PORT_TURBINE))
-    sink.setblocking(False)
+    tx = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # the turbines' port: the SDC answers where a MEAS came from
+    tx.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 1 << 23)
+    tx.bind((SENDER_IP, wire.PORT_TURBINE))
+    tx.setblocking(False)
+    sink = tx
     try:
         svc = make_service(n, rx, SENDER_IP)
         dst = rx.getsockname()
@@ -188,7 +187,7 @@ def run_udp(n: int, mode: str, rounds: int, warm: int) -> dict:
                 "cpu_us_per_round": round(cpu / rounds * 1e6, 2), "ctrl_received": received,
                 "rejected": dict(svc.rejected), "note": "includes the sender's sendto and the sink's recv"}
     finally:
-        for s in (rx, tx, sink):
+        for s in (rx, tx):
             s.close()
 
 

@@ -84,13 +84,28 @@ def mutate(kind: str, real: bytes, rng: random.Random) -> bytes:
     raise ValueError(f"unknown fuzz kind {kind!r}")
 
 
+def udp_sender(src_port: int | None):
+    """(socket, sendto) for UDP datagrams from ``src_port`` (None: an ephemeral port). A given port is
+    written into the UDP header of a raw socket, so the sender need not bind it: a turbine's port is
+    held by the plant, and the switches carry a turbine's datagrams to its SDC only from that port
+    (checksum 0: none, allowed over IPv4)."""
+    if src_port is None:
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        return sock, sock.sendto
+    sock = socket.socket(socket.AF_INET, socket.SOCK_RAW, socket.IPPROTO_UDP)
+
+    def sendto(data: bytes, addr: tuple[str, int]) -> None:
+        sock.sendto(struct.pack(">HHHH", src_port, addr[1], 8 + len(data), 0) + data, (addr[0], 0))
+    return sock, sendto
+
+
 def run(cfg: dict) -> dict:
     """Send ``count`` datagrams spread evenly over ``duration_s`` to ``targets`` ([ip, port] pairs)."""
     rng = random.Random(cfg.get("seed", 1))
     targets = [tuple(t) for t in cfg["targets"]]
     count, duration = int(cfg["count"]), float(cfg["duration_s"])
     wid, step_s = int(cfg.get("wid", 101)), float(cfg.get("step_s", 0.00067))
-    sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    sock, sendto = udp_sender(cfg.get("src_port"))
     sent = {f"{ip}:{port}": dict.fromkeys(KINDS, 0) for ip, port in targets}
     errors = 0
     t_start = time.time()
@@ -102,7 +117,7 @@ def run(cfg: dict) -> dict:
         kind = KINDS[rng.randrange(len(KINDS))]
         data = mutate(kind, real_message(port, wid, seq, seq * step_s, rng), rng)
         try:
-            sock.sendto(data, (ip, port))
+            sendto(data, (ip, port))
             sent[f"{ip}:{port}"][kind] += 1
         except OSError:
             errors += 1

@@ -191,7 +191,7 @@ def pilot_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, lis
         if edge not in paths:
             raise ValueError(f"calibration: no path from {wt} to {sdc_host}")
         path = paths[edge][::-1]  # turbine's switch … SDC's switch
-        to_wt = f"nw_dst={hosts[wt]['ip']},tp_dst={wire.PORT_TURBINE}"
+        to_wt = f"nw_dst={hosts[wt]['ip']},tp_dst={hosts[wt].get('udp_port', wire.PORT_TURBINE)}"
         add(edge, to_wt, hosts[wt]["port"])
         for a, b in zip(path, path[1:]):
             ports = graph.edges[a, b]["ports"]
@@ -270,7 +270,7 @@ class Calibration:
             if self.turbines:
                 pilot = self._start_pilot(setup)
                 for wt in self.turbines:
-                    sock = udp_socket_in(run.net.get(wt).pid, hosts[wt]["ip"], wire.PORT_TURBINE)
+                    sock = udp_socket_in(run.net.get(wt).pid, hosts[wt]["ip"], hosts[wt].get("udp_port", wire.PORT_TURBINE))
                     rxstamp.enable(sock)
                     setup.socks[wt] = sock
             self._model(setup)

@@ -122,8 +122,9 @@ def _print_result(summary: dict, out: Path) -> None:
     for name, t in summary["turbines"].items():
         p = t["packets"]
         d = t["one_way_delay_ms"]["meas_to_sdc"] or {}
+        one_way = f"one-way p50={d['p50']:.2f} ms" if d.get("p50") is not None else "one-way: not stamped"
         print(f"  {name}: meas_tx={p['meas_tx']} meas_rx_sdc={p['meas_rx_sdc']} ctrl_tx_sdc={p['ctrl_tx_sdc']} "
-              f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  one-way p50={d.get('p50', float('nan')):.2f} ms")
+              f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  {one_way}")
     for r in summary["recoveries"]:
         took = f"{r['recovery_ms']:.1f} ms" if r['recovery_ms'] is not None else "not restored"
         print(f"  recovery {r['wt']} after {r['fault']['type']} ({r['cause']}): {took}")

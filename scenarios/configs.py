@@ -32,6 +32,12 @@ def _options(section, group: type) -> dict:
     return section.model_dump(include=set(group.model_fields))
 
 
+def framing_header(sc: Scenario) -> bool:
+    """Whether the run's GTNET-SKT datagrams carry VILLASnode's header: yes, unless an external peer
+    speaks the card's native framing (every process of the run then speaks it too)."""
+    return sc.plant.peer is None or sc.plant.peer.framing == "villas"
+
+
 def sdcs(sc: Scenario) -> list[tuple[str, int, str]]:
     """(host, sdc_id, role) of the SDCs the scenario runs."""
     return [("sdc1", 1, "primary")] + ([("sdc2", 2, "backup")] if sc.sdc.backup else [])
@@ -43,19 +49,20 @@ def app_config(sc: Scenario, desc: dict, out_dir: str, clock: dict | None = None
     return AppConfig(**(clock or {}), **_options(sc.sdn, SdnOptions), topology=desc, controller_vip=CONTROLLER_VIP,
                      controller_vmac=CONTROLLER_VMAC, turbine_fallback_s=sc.plant.remote_loss_fallback_s,
                      backup_sdc="sdc2" if sc.sdc.backup else None, state_dir=out_dir,
-                     intake_socket=None if intake_pid is None else IntakeSocket(netns_pid=intake_pid))
+                     intake_socket=None if intake_pid is None else IntakeSocket(netns_pid=intake_pid),
+                     header=framing_header(sc))
 
 
 def sdc_config(sc: Scenario, desc: dict, out_dir: str, sdc_id: int, role: str,
                clock: dict | None = None) -> SdcConfig:
     return SdcConfig(**(clock or {}), **_options(sc.sdc, SdcOptions), step_s=sc.step_s, controller_vip=CONTROLLER_VIP,
-                     out_dir=out_dir, sdc_id=sdc_id, role=role,
+                     out_dir=out_dir, sdc_id=sdc_id, role=role, header=framing_header(sc),
                      capacity=sum(h["role"] == "turbine" for h in desc["hosts"].values()))
 
 
 def owfcc_config(sc: Scenario, out_dir: str, clock: dict | None = None) -> OwfccConfig:
     return OwfccConfig(**(clock or {}), **_options(sc.owfcc, OwfccOptions), controller_vip=CONTROLLER_VIP,
-                       out_dir=out_dir)
+                       out_dir=out_dir, header=framing_header(sc))
 
 
 def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | None],

@@ -202,6 +202,7 @@ class ExternalDevices:
                 "sdc": {"ip": sdc_ip, "port": wire.PORT_SDC}, "duration_s": duration_s,
                 "ak_period_s": sc.plant.ak_period_s, "ak_window_s": sc.plant.ak_window_s,
                 "remote_loss_fallback_s": sc.plant.remote_loss_fallback_s,
+                "misbehave": [m.model_dump() for m in self.peer.misbehave],
                 "turbines": [{"name": n, "wid": wire.turbine_id(*wire.parse_turbine(n)), "port": p}
                              for n, p in self.peer.turbines.items()]}
 

@@ -16,6 +16,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
+from plant.gtnet_card_faults import Misbehaviour
 from sdvisc.config import TurbineName
 
 MAC_PATTERN = r"^[0-9a-f]{2}(:[0-9a-f]{2}){5}$"
@@ -48,6 +49,9 @@ class PeerSpec(_Strict):
         "from the start to sdc1 (a card whose draft enables it permanently: the switches drop what no path carries)"))
     emulate: bool = Field(True, description=(
         "run the project's card emulator (python -m plant.gtnet_card) in a namespace of its own behind a veth"))
+    misbehave: list[Misbehaviour] = Field(default_factory=list, description=(
+        "emulate only: bursts of bad datagrams the card sends on purpose (plant.gtnet_card_faults: wrong word "
+        "count, unknown turbine, flood) - a faulty device, to check what the testbed rejects and counts"))
 
     @field_validator("ip")
     @classmethod
@@ -60,6 +64,10 @@ class PeerSpec(_Strict):
     def _reachable(self):
         if not self.emulate and self.interface is None:
             raise ValueError("a real peer (emulate: false) needs interface: the NIC cabled to it")
+        if self.misbehave and not self.emulate:
+            raise ValueError("misbehave asks the emulated card for bad datagrams: only with emulate: true")
+        if unknown := sorted({m.turbine for m in self.misbehave} - set(self.turbines)):
+            raise ValueError(f"misbehave names turbines the card does not serve: {', '.join(unknown)}")
         ports = list(self.turbines.values())
         if len(set(ports)) != len(ports):
             raise ValueError("each turbine needs a port of its own on the card")

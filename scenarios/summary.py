@@ -220,11 +220,25 @@ def cpu_section(run, steps: int, plant_cpu_s: float | None = None) -> dict:
             for name, s in sorted(used.items())}
 
 
+def peer_as_plant(card: dict, sdcs: dict) -> dict:
+    """An external peer's counts in the plant statistics' shape: the emulated card's own
+    (``gtnet_card_stats.json``), else — a real card counts nothing for us — the turbines the SDCs
+    heard from, with what they sent them (MEAS received, CTRL sent)."""
+    if card:
+        turbines = {n: {**t, "rx_rejected": t.get("rejected_total", 0)} for n, t in card.get("turbines", {}).items()}
+        return {**card, "turbines": turbines}
+    names = sorted({n for d in sdcs.values() for n in d.get("turbines", {})})
+    return {"turbines": {n: {} for n in names}}
+
+
 def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     out: Path = run.out
     sc = run.scenario
+    card = _read_json(out / "gtnet_card_stats.json")
     plant = _read_json(out / "plant_stats.json")
     sdcs = {p.stem.split("_")[0]: _read_json(p) for p in sorted(out.glob("sdc*_stats.json"))}
+    if sc.plant.model == "external":
+        plant = peer_as_plant(card, sdcs)
     owfcc = _read_json(out / "owfcc_stats.json")
     sdn_states = [st for st in (_read_json(out / "sdn_state.json"), _read_json(out / "sdn2_state.json")) if st]
     in_charge = [st for st in sdn_states if st.get("role") in ("master", "equal", None)]
@@ -298,6 +312,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "fallbacks": plant.get("fallbacks", {}),
         "frequency_hz": plant.get("frequency_hz", {}),
         "batteries": plant.get("batteries", {}),
+        "peer": {k: card.get(k) for k in ("framing", "stream", "steps", "late_steps", "totals", "wire")} if card else None,
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,

@@ -107,12 +107,14 @@ class Timeline:
         else:
             def port(target: str) -> int:
                 if hosts[target]["role"] == "turbine":
-                    return wire.PORT_TURBINE
+                    return hosts[target].get("udp_port", wire.PORT_TURBINE)
                 return wire.PORT_OWFCC if target == "owfcc" else wire.PORT_SDC
 
             cfg.update(targets=[[CONTROLLER_VIP, wire.PORT_CONTROLLER] if t == "controller" else [hosts[t]["ip"], port(t)]
                                 for t in event.targets], seed=event.seed, step_s=run.clock.wall_s(run.scenario.step_s),
-                       wid=wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101)
+                       wid=wire.turbine_id(me["cluster"], me["number"]) if me["role"] == "turbine" else 101,
+                       # a turbine sends from its own port (the plant holds it): its SDC path's flows match it
+                       src_port=me.get("udp_port", wire.PORT_TURBINE) if me["role"] == "turbine" else None)
         path = run.out / f"{name}_config.json"
         path.write_text(json.dumps(cfg, indent=1))
         run.processes.start(f"{name}.fuzz", [sys.executable, "-m", "host_tools.fuzz", "--config", str(path)],

@@ -168,7 +168,9 @@ class GridSourceSettings(_Config):
 class PlantOptions(_Config):
     """The plant's options a scenario sets (its ``plant`` section)."""
 
-    model: Literal["minimal", "full"] = Field("minimal", description="minimal: infinite bus; full: the 500 MW farm")
+    model: Literal["minimal", "full", "external"] = Field("minimal", description=(
+        "minimal: infinite bus; full: the 500 MW farm; external: no plant process, an external GTNET-SKT peer "
+        "(a scenario's plant.peer) sends the turbines' measurements"))
     record: list[TurbineName] = Field(default_factory=list, description=(
         "turbines whose signals go to timeseries.csv (a scenario's empty list: those its timeline names)"))
     record_every: int = Field(15, ge=1, description="record one sample every N steps")
@@ -187,6 +189,13 @@ class PlantOptions(_Config):
 
 class PlantConfig(ServiceBase, PlantOptions):
     """``python -m plant.service``."""
+
+    @field_validator("model")
+    @classmethod
+    def _a_model_to_run(cls, value: str) -> str:
+        if value == "external":
+            raise ValueError("an external plant has no plant process (the GTNET-SKT peer is the plant)")
+        return value
 
     duration_s: RunSeconds
     turbines: list[TurbineEndpoint]
