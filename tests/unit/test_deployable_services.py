@@ -25,7 +25,15 @@ from scenarios import cli_services, configs
 from scenarios.cli import main as sdvisc_main
 from scenarios.loader import load_scenario
 from sdvisc import wire
-from sdvisc.config import AppConfig, ConfigError, OwfccConfig, SdcConfig, load_config, write_config
+from sdvisc.config import (
+    AppConfig,
+    ConfigError,
+    OwfccConfig,
+    PlantOptions,
+    SdcConfig,
+    load_config,
+    write_config,
+)
 from tests.unit.test_sdc_service_udp import _request
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -316,3 +324,31 @@ def test_sdvisc_sdn_app_writes_its_state_and_events_and_stops_on_sigterm(tmp_pat
     assert set(final["tables"]["T1"]) == {"wt1_1", "wt1_2"}
     assert state.read_text().startswith("{\n")  # the final, indented state (written at SIGTERM)
     assert [e["type"] for e in _events(tmp_path / "state" / "sdn_events.jsonl")][:1] == ["app_start"]
+
+
+# ------------------------------------------------------------------ docs/real-devices.md against the code
+
+def points_table(mtype: wire.MsgType) -> str:
+    """The GTNET-SKT points of one message as docs/real-devices.md lists them, from LAYOUTS."""
+    rows = ["| Word | Point | Type | Unit | Meaning |", "|---:|---|---|---|---|"]
+    rows += [f"| {i} | `{f.name}` | {'int' if f.kind == 'i32' else 'float'} | {f.unit or '—'} | {f.doc} |"
+             for i, f in enumerate(wire.LAYOUTS[mtype])]
+    return "\n".join(rows)
+
+
+def test_the_rtds_checklist_matches_the_layouts_ports_and_rates():
+    doc = (ROOT / "docs" / "real-devices.md").read_text()
+    for mtype in (wire.MsgType.MEAS, wire.MsgType.AK, wire.MsgType.CTRL, wire.MsgType.REQUEST):
+        assert points_table(mtype) in doc, f"the {mtype.name} points differ from sdvisc/wire_layouts.py LAYOUTS"
+    for name in ("PORT_TURBINE", "PORT_SDC", "PORT_CONTROLLER", "PORT_OWFCC"):
+        assert f"`{name}` {getattr(wire, name)}" in doc
+    step_s = SdcConfig.model_fields["step_s"].default
+    assert step_s == 0.67e-3 and f"**{round(1 / step_s)} datagrams/s per turbine in each direction**" in doc
+    for mtype, per_s in ((wire.MsgType.MEAS, 1 / step_s), (wire.MsgType.CTRL, 1 / step_s),
+                          (wire.MsgType.AK, 1 / PlantOptions.model_fields["ak_period_s"].default)):
+        words = [wire.word_count(mtype, header=h) for h in (False, True)]
+        row = (f"| {words[0]} / {words[1]} | {round(per_s * 4 * words[0])} / {round(per_s * 4 * words[1])} | "
+               f"{round(per_s * (4 * words[0] + 28))} / {round(per_s * (4 * words[1] + 28))} |")
+        assert row in doc, f"{mtype.name}: {row}"
+    for section in ("## External switches", "## External plant in a scenario", "## Limits"):
+        assert section in doc
