@@ -283,7 +283,12 @@ class Owfcc:
 
 def main(argv: list[str] | None = None) -> int:
     cfg = service_config(OwfccConfig, argv, prog="python -m owfcc.service", process="owfcc", description=__doc__)
-    owfcc = Owfcc(cfg)
+    try:
+        owfcc = Owfcc(cfg)
+    except OSError as exc:  # a port in use, a command socket that cannot be made
+        print(f"owfcc: cannot open its sockets (UDP {cfg.bind_ip}:{wire.PORT_OWFCC}, command socket "
+              f"{cfg.command_socket}): {exc}", file=sys.stderr)
+        return 1
     # the runner (or systemd) stops the OWFCC with SIGTERM: the loop ends, the statistics are written
     signal.signal(signal.SIGTERM, lambda *_: owfcc.stop())
     try:

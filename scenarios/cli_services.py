@@ -90,7 +90,8 @@ def _validate(service: Service, path: Path):
 
 
 def run_service(name: str, args) -> int:
-    """Validate, prepare the output directory and the log, then exec the service (see the module docstring)."""
+    """Validate, prepare the output directory (and the OWFCC's command socket's) and the log, then
+    exec the service (see the module docstring)."""
     from sdvisc.config import ConfigError
 
     service = SERVICES[name]
@@ -103,8 +104,10 @@ def run_service(name: str, args) -> int:
         return _fail(name, str(exc))
     out = getattr(cfg, "out_dir", None) or getattr(cfg, "state_dir", None)
     log = Path(args.log) if args.log else Path(out) / log_name(name, cfg) if out else None
+    command_socket = getattr(cfg, "command_socket", None)  # (the OWFCC's)
     try:
-        for where in {Path(out) if out else None, log.parent if log else None} - {None}:
+        for where in {Path(out) if out else None, log.parent if log else None,
+                      Path(command_socket).parent if command_socket else None} - {None}:
             where.mkdir(parents=True, exist_ok=True)
         log_fd = os.open(log, os.O_WRONLY | os.O_APPEND | os.O_CREAT, 0o644) if log else None
     except OSError as exc:

@@ -224,7 +224,7 @@ class OwfccOptions(_Config):
 class ScheduledCommand(_Config):
     """One command of a deployed OWFCC's ``schedule`` (what a stdin or command-socket line says)."""
 
-    t_s: float = Field(ge=0, le=1e6, description="send it this many simulated seconds after the OWFCC starts")
+    t_s: float = Field(ge=0, description="send it this many simulated seconds after the OWFCC starts")
     cmd: Literal["visc_on", "visc_off", "set_params"]
     wt: TurbineName
     params: dict[str, float] = Field(default_factory=dict, description=(
