@@ -219,6 +219,22 @@ class ExternalDevices:
         ready = run.processes.wait_ready("plant", "gtnet_card_ready.json", "the GTNET-SKT card emulator")
         return float(ready.get("t0_wall") or run.clock.now())
 
+    def describe(self) -> dict | None:
+        """What the run had outside Mininet (summary.json ``external``): each external switch's datapath
+        id, whether it was emulated, and its ports (interface names), the peer's addresses, switch port,
+        turbines (UDP ports) and framing."""
+        if not self.active:
+            return None
+        external = self.scenario.topology.external_switches
+        out: dict = {"switches": {b.name: {"dpid": b.dpid, "emulated": external[b.name].emulate,
+                                           "ports": {str(p): i for p, i in sorted(b.ports.items())}}
+                                  for b in self.bridges.values()}}
+        if self.peer is not None:
+            out["peer"] = {"ip": self.peer.ip, "mac": self.peer.mac, "switch": self.peer.switch, "port": self.peer_port,
+                           "framing": self.peer.framing, "turbines": dict(self.peer.turbines),
+                           "emulated": self.peer.emulate, "interface": self.peer.interface or self.peer_intf}
+        return out
+
     # ------------------------------------------------------------------ while it runs, and after
     def link_ends(self, a: str, b: str) -> list[str] | None:
         """The root-namespace interfaces of the link a–b if it leads to a device, else None."""

@@ -313,6 +313,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "frequency_hz": plant.get("frequency_hz", {}),
         "batteries": plant.get("batteries", {}),
         "peer": {k: card.get(k) for k in ("framing", "stream", "steps", "late_steps", "totals", "wire")} if card else None,
+        "external": run.external.describe() if getattr(run, "external", None) else None,  # scenarios/external.py
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,

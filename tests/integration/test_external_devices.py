@@ -1,0 +1,85 @@
+"""Real devices in the loop, without hardware (issue 29, tests 4a-4c; docs/real-devices.md): an
+external GTNET-SKT peer (the project's card emulator in a namespace of its own, attached to the
+emulated network through a veth treated as a physical interface) in place of the plant, and an
+OpenFlow switch that Mininet did not build (a plain Open vSwitch bridge made with ovs-vsctl, with
+its own datapath id) under the SDN app's control. Real Mininet hosts, Open vSwitch, os-ken, UDP."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from tests.integration.helpers import ROOT, assert_no_leftovers, run_scenario
+from topologies import topos
+from topologies.base import describe
+
+pytestmark = pytest.mark.network
+SC = ROOT / "scenarios"
+K = "4"  # both scenarios' own time scale
+
+
+def links_of(path: list[str]) -> set[frozenset]:
+    return {frozenset(pair) for pair in zip(path, path[1:])}
+
+
+def test_an_external_switch_carries_the_path_and_its_port_going_down_triggers_dr(tmp_path):
+    """s3 of the prototype is a bridge made outside Mininet: the app connects to it, routes wt1_1 over
+    it, learns of the failed link l2-s3 from the external switch's own port status (l2 speaks no
+    OpenFlow), and after the 40 ms hold reroutes around it; the bridge is gone after the run."""
+    s = run_scenario(SC / "external_switch.yaml", tmp_path, "--time-scale", K)
+    ext = s["external"]["switches"]["s3"]
+    paper = describe(topos["paper"](clusters=1, turbines=2))
+    s3_ports = {lk["a_port"] if lk["a"] == "s3" else lk["b_port"] for lk in paper["links"] if "s3" in (lk["a"], lk["b"])}
+    s3_ports |= {h["port"] for h in paper["hosts"].values() if h["switch"] == "s3"}
+    assert ext["emulated"] and ext["dpid"] == paper["switches"]["s3"]["dpid"]
+    assert {int(p) for p in ext["ports"]} == s3_ports  # the topology's port numbers, as the app was told
+    assert any(e["type"] == "switch_up" and e.get("switch") == "s3" for e in s["events"])
+    assert any(e["type"] == "link_down" and e.get("switch") == "s3" and e.get("source") == "sdn_app"
+               for e in s["events"]), "the external switch's own port status did not reach the app"
+    (dr,) = [e for e in s["events"] if e["type"] == "dr" and not e.get("after_end")]
+    assert frozenset(("l2", "s3")) in links_of(dr["old_path"]) and "s3" not in dr["new_path"]
+    (rec,) = s["recoveries"]
+    assert rec["cause"] == "dr" and rec["recovery_ms"] is not None and rec["recovery_ms"] < 100
+    assert rec["t_detect"] - rec["t_loss"] >= 0.040 - 0.001
+    lost_s = rec["recovery_ms"] / 1e3
+    assert s["turbines"]["wt1_1"]["packets"]["ctrl_rx"] >= (4.0 - 1.0 - lost_s) / s["step_s"] * 0.95
+    assert s["tables"]["T3"]["wt1_1"] == "1/1"
+    assert_no_leftovers()
+
+
+def test_an_external_peer_serves_two_turbines_from_one_ip_through_dr_failover_and_its_own_bad_datagrams(tmp_path):
+    """One card, one IP, two UDP ports, native framing: both turbines' MEAS -> CTRL loops close through
+    the switches; the card's own bad datagrams (wrong word count, an unknown turbine, a flood) are
+    dropped and counted and the other turbines' control goes on; a failed link is repaired by DR for
+    both; the killed primary SDC's turbines are taken over by the backup; nothing is left behind."""
+    s = run_scenario(SC / "external_peer.yaml", tmp_path, "--time-scale", K)
+    card = json.loads((tmp_path / "gtnet_card_stats.json").read_text())
+    assert s["external"]["peer"]["emulated"] and s["peer"]["framing"] == "native"
+    t1 = s["tables"]["T1"]
+    assert t1["wt1_1"]["ip"] == t1["wt1_2"]["ip"] == "10.0.9.1"
+    assert (t1["wt1_1"]["udp_port"], t1["wt1_2"]["udp_port"]) == (50101, 50102)
+    # the loops: one STREAM_START each, every answer the SDCs sent arrived, nothing of theirs refused
+    assert card["totals"]["commands_rx"] == 2 and card["totals"]["rejected_total"] == 0
+    for wt, start in (("wt1_1", 1.0), ("wt1_2", 1.2)):
+        p = s["turbines"][wt]["packets"]
+        lost_s = sum(r["recovery_ms"] for r in s["recoveries"] if r["wt"] == wt) / 1e3
+        assert p["meas_tx"] >= (4.0 - start) / s["step_s"] * 0.97
+        assert p["ctrl_rx"] >= (4.0 - start - lost_s) / s["step_s"] * 0.95
+        assert card["turbines"][wt]["fallbacks"] == 0 and card["turbines"][wt]["trips"] == 0
+        assert card["turbines"][wt]["mode"] == "remote"
+        # the card's bad datagrams (1.6-1.7 s) interrupted nobody's control
+        assert not [g for g in s["turbines"][wt]["ctrl_gaps"] if 1.55 <= g[0] <= 1.95], s["turbines"][wt]["ctrl_gaps"]
+    # ... and were counted (the backup SDC got the mirrored copies; the primary's counts die with it)
+    assert card["turbines"]["wt1_2"]["misbehaved_tx"] == 40 and card["turbines"]["wt1_1"]["misbehaved_tx"] == 300
+    bad = s["rejected"]["sdc2"]
+    assert bad.get("length") == 20 and bad.get("unserved") == 20
+    assert bad.get("inconsistent", 0) >= 100  # copies of a sample already taken, with other values
+    # DR for both on the failed link, then the backup SDC for both
+    causes = sorted((r["wt"], r["cause"]) for r in s["recoveries"])
+    assert causes == [("wt1_1", "dr"), ("wt1_1", "sdc_failover"), ("wt1_2", "dr"), ("wt1_2", "sdc_failover")]
+    assert all(r["recovery_ms"] is not None and r["recovery_ms"] < 100 for r in s["recoveries"])
+    for wt in ("wt1_1", "wt1_2"):
+        assert s["turbines"][wt]["per_sdc"]["sdc2"]["meas_rx"] > 0.5 / s["step_s"]  # the last second, from sdc2
+        assert s["tables"]["T3"][wt] == "1/1"
+    assert_no_leftovers()
