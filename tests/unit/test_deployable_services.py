@@ -352,3 +352,24 @@ def test_the_rtds_checklist_matches_the_layouts_ports_and_rates():
         assert row in doc, f"{mtype.name}: {row}"
     for section in ("## External switches", "## External plant in a scenario", "## Limits"):
         assert section in doc
+
+
+def test_sdvisc_gtnet_card_runs_the_project_s_card_emulator(tmp_path):
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:  # a free UDP port for the one turbine
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    cfg = tmp_path / "card.yaml"
+    cfg.write_text(yaml.safe_dump({
+        "step_s": 0.00067, "time_scale": 4.0, "bind_ip": "127.0.0.1", "controller_vip": "127.0.0.1",
+        "controller_port": port, "out_dir": str(tmp_path / "out"),
+        "turbines": [{"name": "wt1_1", "wid": 101, "port": port}]}))  # (no stream: nothing is sent)
+    proc = _start(["gtnet-card", "--config", str(cfg)], tmp_path)
+    log = tmp_path / "out" / "gtnet-card.log"
+    try:
+        _until(lambda: (tmp_path / "out" / "gtnet_card_ready.json").exists() or proc.poll() is not None, "ready file")
+        _skip_if_port_busy(proc, log)
+        assert proc.poll() is None, log.read_text()
+    finally:
+        code = _stop(proc)
+    assert code == 0, log.read_text()
+    assert (tmp_path / "out" / "gtnet_card_stats.json").exists() and log.read_text().startswith("sdvisc gtnet-card: ")
