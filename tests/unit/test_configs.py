@@ -9,7 +9,9 @@ from pathlib import Path
 
 import pytest
 
+from plant.gtnet_card_core import GtnetCardConfig
 from scenarios import configs
+from scenarios.external import ExternalDevices
 from scenarios.loader import load_scenario
 from sdvisc.config import (
     AppConfig,
@@ -31,15 +33,26 @@ SHIPPED = sorted((ROOT / "scenarios").glob("*.yaml")) + sorted((ROOT / "scenario
 @pytest.mark.parametrize("path", SHIPPED, ids=lambda p: p.stem)
 def test_every_shipped_scenario_gives_valid_process_configs(path, tmp_path):
     sc = load_scenario(path)
-    desc = describe(topos[sc.topology.name](**sc.topology.params()))
+    topo = topos[sc.topology.name](**sc.topology.params())
+    desc = describe(topo)
     out = str(tmp_path)
+    if sc.plant.model == "external":  # the card emulator's configuration instead of the plant's
+        devices = ExternalDevices(sc)
+        desc = devices.detach(topo, desc)
+        card = GtnetCardConfig(**devices.peer_config(desc["hosts"]["sdc1"]["ip"], out, {}, sc.duration_s))
+        assert [(t.name, t.port) for t in card.turbines] == list(sc.plant.peer.turbines.items())
+        assert card.header == configs.framing_header(sc)
     pids = {n: None for n, h in desc["hosts"].items() if h["role"] == "turbine"}
-    made = [(AppConfig, configs.app_config(sc, desc, out)), (OwfccConfig, configs.owfcc_config(sc, out)),
-            (PlantConfig, configs.plant_config(sc, desc, out, pids))]
+    made = [(AppConfig, configs.app_config(sc, desc, out)), (OwfccConfig, configs.owfcc_config(sc, out))]
     made += [(SdcConfig, configs.sdc_config(sc, desc, out, i, role)) for _, i, role in configs.sdcs(sc)]
+    if sc.plant.model != "external":
+        made.insert(2, (PlantConfig, configs.plant_config(sc, desc, out, pids)))
     for model, cfg in made:
         back = load_config(model, write_config(cfg, tmp_path / f"{model.__name__}.json"))
         assert back == cfg
+        assert cfg.header == configs.framing_header(sc)  # one framing for every process of a run
+    if sc.plant.model == "external":
+        return
     plant = made[2][1]
     assert plant.step_s == sc.step_s and plant.report_loss_after_s == sc.sdn.dr_hold_s
     assert made[0][1].turbine_fallback_s == sc.plant.remote_loss_fallback_s
