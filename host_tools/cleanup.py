@@ -40,8 +40,24 @@ def _run(*args: str) -> str:
         return ""
 
 
+RUN_MARKER = "SDVISC_RUN_PROCESS=1"
+"""In the environment of every process a run starts (scenarios.processes): the services a lab deploys
+(:data:`DEPLOYABLE`) are removed only with it, so a clean-up never stops an SDC, SDN app, OWFCC or card
+emulator that systemd or a user started on the same machine."""
+DEPLOYABLE = ("-m sdn_app", "-m sdc_unit.service", "-m owfcc.service", "-m plant.gtnet_card")
+
+
+def _started_by_a_run(pid: str) -> bool:
+    try:
+        with open(f"/proc/{pid}/environ", "rb") as fh:
+            return RUN_MARKER.encode() in fh.read().split(b"\0")
+    except OSError:
+        return False
+
+
 def project_processes() -> list[tuple[int, str]]:
-    """(pid, cmdline) of processes a run starts, except this process and its ancestors."""
+    """(pid, cmdline) of processes a run starts, except this process and its ancestors (a deployable
+    service only if a run started it: :data:`RUN_MARKER`)."""
     own = {os.getpid(), os.getppid()}
     found = []
     for entry in os.listdir("/proc"):
@@ -53,6 +69,8 @@ def project_processes() -> list[tuple[int, str]]:
         except OSError:
             continue
         if any(marker in cmd for marker in PROCESS_MARKERS):
+            if any(marker in cmd for marker in DEPLOYABLE) and not _started_by_a_run(entry):
+                continue
             found.append((int(entry), cmd))
     return found
 

@@ -18,6 +18,8 @@ import threading
 import time
 from pathlib import Path
 
+from host_tools.cleanup import RUN_MARKER
+
 MAX_RESTARTS = 3  # per service and run
 RESTARTABLE = (".sdc", "owfcc.owfcc", "controller", "controller2")  # the plant is the run's clock: never
 CONTROLLERS = ("controller", "controller2")
@@ -65,6 +67,7 @@ class Processes:
         # network at a fault) waits for its worker threads on a busy 2-core machine, 5-20 ms instead
         # of ~1 ms, longer than a step at k = 8 (docs/sdc.md, through the network)
         env.setdefault("OPENBLAS_NUM_THREADS", "1")
+        env.update([RUN_MARKER.split("=")])  # the clean-up stops only what a run started (host_tools.cleanup)
         if host is None:
             proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
                                     start_new_session=True)
