@@ -115,8 +115,9 @@ def testbed_links() -> list[str]:
 
 
 def testbed_netns() -> list[str]:
-    """Network namespaces a run made by name (an emulated peer's)."""
-    return [n for n in _run("ip", "netns", "list").split() if n == PEER_NETNS]
+    """Network namespaces the testbed made by name: an emulated peer's (:data:`PEER_NETNS`), a test's
+    stand-in lab machines (``sdvisc-lab-*``)."""
+    return [n for n in _run("ip", "netns", "list").split() if n == PEER_NETNS or n.startswith("sdvisc-lab-")]
 
 
 def leftovers() -> dict:
