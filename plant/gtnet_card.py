@@ -22,30 +22,27 @@ import sys
 import time
 from pathlib import Path
 
-import yaml
-
 from plant.gtnet_card_core import CardCore, GtnetCardConfig  # noqa: F401 (GtnetCardConfig re-exported)
-from sdvisc.config import ConfigError, parse_config
+from sdvisc.config import ConfigError, load_config
 from sdvisc.jsonlines import write_json_atomic
+from sdvisc.latest_writer import LatestWriter
 from sdvisc.netns import udp_socket_in
 
 READY_FILE = "gtnet_card_ready.json"
 STATS_FILE = "gtnet_card_stats.json"
+STATUS_FILE = "gtnet_card_status.json"
+"""The card's live status (simulated time, late steps, packets, streaming turbines), every
+:data:`STATUS_EVERY_S` of card time: what a run's progress line shows (as the plant's ``plant_status.json``)."""
+STATUS_EVERY_S = 0.05
 MAX_READ_PER_STEP = 4096
 """At most this many datagrams read from one socket per step (the first ``flood_limit_per_step`` are
 handled, the rest counted as ``flood``); what a flood leaves waiting is read in the next steps."""
 
 
 def load_card_config(path: str | Path) -> GtnetCardConfig:
-    """Read and validate a card configuration (JSON if the name ends in .json, else YAML)."""
-    try:
-        text = Path(path).read_text()
-        raw = json.loads(text) if str(path).endswith(".json") else yaml.safe_load(text)
-    except (OSError, ValueError, yaml.YAMLError) as exc:
-        raise ConfigError(f"{path}: cannot read the config: {exc}") from exc
-    if not isinstance(raw, dict):
-        raise ConfigError(f"{path}: (top level): expected a mapping of keys, got {type(raw).__name__}")
-    return parse_config(GtnetCardConfig, raw, path)
+    """Read and validate a card configuration (:func:`sdvisc.config.load_config`: YAML for .yaml/.yml,
+    else JSON; every problem with its key, and its line in YAML)."""
+    return load_config(GtnetCardConfig, path)
 
 
 class GtnetCard:
@@ -55,6 +52,7 @@ class GtnetCard:
         self.cfg = cfg
         self.clock = cfg.clock()  # header stamps and AK timing (the run's clock, simulated seconds)
         self.core = CardCore(cfg)
+        self._status = LatestWriter(Path(cfg.out_dir) / STATUS_FILE)
         self.socks = []
         try:
             for t in cfg.turbines:
@@ -118,6 +116,7 @@ class GtnetCard:
         if self.t0_wall is None:
             self.start()
         t0 = self._t0_mono
+        status_every = max(1, int(round(STATUS_EVERY_S / cfg.step_s)))
         while core.k < end and not self.stop_requested:
             deadline = t0 + core.k * step_wall
             if time.monotonic() < deadline:
@@ -129,8 +128,17 @@ class GtnetCard:
             now = clock.now()
             self._drain(now)
             self._send(core.step(now))
+            if core.k % status_every == 0:
+                self._status.put(json.dumps(self.status()).encode())
         self.wall_s = time.monotonic() - t0
         self.cpu_s = time.process_time() - cpu0
+
+    def status(self) -> dict:
+        """The live status (:data:`STATUS_FILE`)."""
+        totals = [p.counts for p in self.core.ports]
+        return {"t_sim": round(self.core.k * self.cfg.step_s, 6), "late_steps": self.late_steps,
+                "meas_tx": sum(c["meas_tx"] for c in totals), "ctrl_rx": sum(c["ctrl_rx"] for c in totals),
+                "streaming": [p.name for p in self.core.ports if p.streaming]}
 
     def summary(self) -> dict:
         """What ``gtnet_card_stats.json`` holds: the core's counters and the pacing."""
@@ -141,6 +149,7 @@ class GtnetCard:
     def close(self) -> None:
         for sock in self.socks:
             sock.close()
+        self._status.close()
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -226,7 +226,7 @@ class Run:
         return max(masters or states, key=lambda s: (s.get("generation", 0), s.get("t_wall", 0)))
 
     def plant_status(self) -> dict | None:
-        return self._read_state("plant_status.json")
+        return self._read_state("plant_status.json") or self._read_state("gtnet_card_status.json")
 
     def start_services(self) -> None:
         sc = self.scenario

@@ -310,6 +310,8 @@ def test_the_program_streams_on_loopback_and_writes_its_stats_on_sigterm(tmp_pat
         assert t["meas_tx"] > 0 and t["ctrl_rx"] > 0 and t["commands_rx"] == 1 and t["ak_tx"] > 0
     assert stats["turbines"]["wt1_1"]["rejected"] == {"length": 1}
     assert stats["totals"]["rejected"] == {"length": 1}
+    status = json.loads((tmp_path / "out" / "gtnet_card_status.json").read_text())  # the run's progress line
+    assert status["streaming"] == ["wt1_1", "wt1_2"] and 0 < status["meas_tx"] <= stats["totals"]["meas_tx"]
 
 
 def test_a_misbehaving_card_sends_its_bursts_once_from_the_named_port_and_counts_them():
