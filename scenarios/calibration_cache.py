@@ -166,10 +166,10 @@ def calibration_reason(calibration: dict) -> str:
         worst = max(failed, key=lambda t: t["k"])
         parts.append(f"k = {worst['k']:g} fell short ({'; '.join(worst['why_not']) or 'no answer'})")
     if chosen is not None:
-        p99 = chosen.get("round_trip_p99_sim_ms")
+        p99 = chosen.get("answer_p99_sim_ms")
         held = "held" if chosen["ok"] else "fell short too (the largest tried)"
         parts.append(f"k = {chosen['k']:g} {held}: plant {chosen['plant_busy']:.0%} busy, SDC {chosen['sdc_busy']:.0%}, "
-                     + (f"MEAS->CTRL p99 {p99:.3f} ms simulated" if p99 is not None else "no ViSC turbine"))
+                     + (f"step start->CTRL p99 {p99:.3f} ms simulated" if p99 is not None else "no ViSC turbine"))
     if not trials:
         parts.append("no candidate tried")
     return "; ".join(parts)

@@ -26,11 +26,11 @@ DEFAULT = ROOT / "scenarios" / "default.yaml"
 
 
 def _trial(k: float, ok: bool, why: list[str] | None = None, p99: float | None = 0.3) -> dict:
-    return {"k": k, "ok": ok, "why_not": why or [], "plant_busy": 0.2, "sdc_busy": 0.1, "round_trip_p99_sim_ms": p99}
+    return {"k": k, "ok": ok, "why_not": why or [], "plant_busy": 0.2, "sdc_busy": 0.1, "answer_p99_sim_ms": p99}
 
 
 def _measured(k: float = 4.0) -> dict:
-    trials = [_trial(1, False, ["plant step + MEAS->CTRL p99 0.900 ms simulated (limit 0.503 ms = 0.75 Ts)"]),
+    trials = [_trial(1, False, ["step start -> CTRL p99 0.900 ms simulated (limit 0.503 ms = 0.75 Ts)"]),
               _trial(2, False, ["SDC 60% busy (limit 50%)"]), _trial(4, True)]
     return {"time_scale": k, "met": True, "trials": trials, "wall_s": 6.2}
 
