@@ -169,7 +169,7 @@ def calibration_reason(calibration: dict) -> str:
         p99 = chosen.get("answer_p99_sim_ms")
         held = "held" if chosen["ok"] else "fell short too (the largest tried)"
         parts.append(f"k = {chosen['k']:g} {held}: plant {chosen['plant_busy']:.0%} busy, SDC {chosen['sdc_busy']:.0%}, "
-                     + (f"step start->CTRL p99 {p99:.3f} ms simulated" if p99 is not None else "no ViSC turbine"))
+                     + (f"step start -> CTRL p99 {p99:.3f} ms simulated" if p99 is not None else "no ViSC turbine"))
     if not trials:
         parts.append("no candidate tried")
     return "; ".join(parts)
