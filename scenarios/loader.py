@@ -200,6 +200,9 @@ class _Parts:
                 problems.append((("timeline", i), f"no switch-to-switch link {event.a}-{event.b} in topology {topo.name}"))
             if event.do == "spoof_ak" and event.victim not in hosts:
                 problems.append((("timeline", i, "victim"), f"turbine {event.victim!r} is not in topology {topo.name}"))
+            if event.do in ("kill", "fuzz", "spoof_ak") and self.peer is not None and event.host in self.peer.turbines:
+                problems.append((("timeline", i, "host"), f"{event.host} is a turbine of the external peer: the run "
+                                                           f"has no host of it to act from"))
             if event.do in ("kill", "fuzz", "spoof_ak") and event.host not in hosts:
                 problems.append((("timeline", i, "host"), f"no host {event.host!r}"))
             if event.do == "fuzz":

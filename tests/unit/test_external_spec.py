@@ -48,6 +48,8 @@ def problems(tmp_path, text: str) -> str:
      "takes no commands from the testbed"),
     (PAPER + PEER.replace("}}\n", "}, emulate: false, interface: eth1}\n"), "(top level)",
      "time_scale must be 1"),
+    (PAPER + PEER + "timeline:\n  - {t: 1.0, do: fuzz, host: wt1_2, targets: [sdc1], count: 10, duration_s: 1}\n",
+     "timeline.0.host", "a turbine of the external peer"),
 ])
 def test_a_bad_device_key_is_named_with_what_was_expected(tmp_path, body, key, expect):
     text = problems(tmp_path, body)
