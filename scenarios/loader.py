@@ -11,38 +11,20 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
 from pydantic import TypeAdapter, ValidationError
 
 from plant.settable import ACTIONS as PLANT_ACTIONS
 from plant.settable import model_class, relative_params, settable_params, supported_actions
 from scenarios.external_spec import PeerSpec, external_problems
 from scenarios.schema import EVENT_KINDS, Event, Scenario, TopologySpec
+from sdvisc.yaml_lines import line_of
+from sdvisc.yaml_lines import parse as parse_yaml
 
 _EVENT = TypeAdapter(Event)
 
 
 class ScenarioError(ValueError):
     """A scenario that cannot be run; the message names file, line, key path and expectation."""
-
-
-def _line_of(node, path: tuple) -> int | None:
-    """1-based line of the YAML node at ``path`` (deepest existing ancestor if missing)."""
-    line = node.start_mark.line + 1 if node is not None else None
-    for key in path:
-        if isinstance(node, yaml.MappingNode):
-            for k, v in node.value:
-                if k.value == str(key):
-                    node, line = v, k.start_mark.line + 1
-                    break
-            else:
-                return line
-        elif isinstance(node, yaml.SequenceNode) and isinstance(key, int) and key < len(node.value):
-            node = node.value[key]
-            line = node.start_mark.line + 1
-        else:
-            return line
-    return line
 
 
 def _clean_loc(loc: tuple) -> tuple:
@@ -70,13 +52,7 @@ def load_scenario(path: str | Path) -> Scenario:
         text = path.read_text()
     except OSError as exc:
         raise ScenarioError(f"{path}: cannot read: {exc.strerror}") from exc
-    try:
-        root = yaml.compose(text)
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f":{mark.line + 1}" if mark else ""
-        raise ScenarioError(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', exc)}") from exc
+    root, data = parse_yaml(text, path, ScenarioError)
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}:1: expected a mapping of scenario keys at the top level")
     problems: list[tuple[tuple, str]] = []
@@ -88,7 +64,7 @@ def load_scenario(path: str | Path) -> Scenario:
     parts = _Parts.of_scenario(scenario) if scenario is not None else _Parts.of_partial(data, {loc for loc, _ in problems})
     problems += parts.problems()
     if problems:
-        lines = [(_line_of(root, loc), ".".join(str(p) for p in loc) or "(top level)", msg) for loc, msg in problems]
+        lines = [(line_of(root, loc), ".".join(str(p) for p in loc) or "(top level)", msg) for loc, msg in problems]
         lines.sort(key=lambda item: item[0] or 0)
         raise ScenarioError("\n".join(f"{path}:{line}: {key}: {msg}" for line, key, msg in lines))
     return scenario

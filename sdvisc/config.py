@@ -30,6 +30,7 @@ from sdvisc.clock import Clock
 from sdvisc.vocabulary import MAX_ONSHORE_UNITS, TURBINE_PATTERN, VISC_PARAMS
 from sdvisc.wire_layouts import PORT_TURBINE
 from sdvisc.yaml_lines import line_of
+from sdvisc.yaml_lines import parse as parse_yaml
 
 CONTROLLER_VIP = "10.0.0.254"
 """The SDN application's virtual IP address (packets to it reach the controller's intake socket, or
@@ -406,13 +407,7 @@ def load_config(model: type[C], path: str | Path) -> C:
         except json.JSONDecodeError as exc:
             raise ConfigError(f"{path}: cannot read JSON config: {exc}") from exc
         return parse_config(model, raw, path)
-    try:
-        nodes = yaml.compose(text)
-        raw = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f":{mark.line + 1}" if mark else ""
-        raise ConfigError(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', None) or exc}") from exc
+    nodes, raw = parse_yaml(text, path, ConfigError)
     return parse_config(model, raw, path, nodes=nodes)
 
 

@@ -1,13 +1,23 @@
-"""Where a key of a YAML file is: the 1-based line of a key path in the file's node tree.
-
-The same walk as the scenario loader's (``scenarios.loader._line_of``), kept here because sdvisc is
-the ground floor and imports nothing above it: :func:`sdvisc.config.load_config` uses it to put the
-line beside every problem of a YAML configuration.
+"""YAML files whose problems name their lines: :func:`parse` (the data and its node tree, or one error
+naming the line of a syntax error) and :func:`line_of` (the 1-based line of a key path in the node
+tree). Used by :func:`sdvisc.config.load_config` (a process's configuration) and
+:func:`scenarios.loader.load_scenario` (a scenario), so both put the line beside every problem.
 """
 
 from __future__ import annotations
 
 import yaml
+
+
+def parse(text: str, path, error: type[Exception]) -> tuple[yaml.Node | None, object]:
+    """(node tree, data) of the YAML ``text`` of file ``path``; invalid YAML raises ``error`` with
+    ``path:line: not valid YAML: problem``."""
+    try:
+        return yaml.compose(text), yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f":{mark.line + 1}" if mark else ""
+        raise error(f"{path}{where}: not valid YAML: {getattr(exc, 'problem', None) or exc}") from exc
 
 
 def line_of(node: yaml.Node | None, path: tuple) -> int | None:
