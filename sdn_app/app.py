@@ -82,6 +82,7 @@ class SdviscApp(app_manager.OSKenApp):
         # clock read inside it (a tick preempted into the middle of a port-status handling once saw
         # a healed turbine half-restored and declared a second no_path for it)
         self._lock = threading.RLock()
+        self.thread_ids: dict[str, int] = {}  # the app's own threads' kernel ids (sdn_state.json: per-thread CPU)
         self.intake_counts: Counter = Counter()
         self._intake = None
         if self.config.intake_socket is not None:  # AKs, heartbeats, requests and replies come here, not as packet-ins
@@ -132,7 +133,7 @@ class SdviscApp(app_manager.OSKenApp):
         with self._lock if not final else contextlib.nullcontext():  # a consistent snapshot; encoding needs no lock
             state = {"tables": self.logic.snapshot(), "counters": dict(self.logic.counters),
                      "role": self.roles.role, "generation": self.roles.generation, "instance": self.instance,
-                     "openflow": dict(self.of_counts), "intake": dict(self.intake_counts), "wire": self.logic.wire_stats.as_dict(),
+                     "openflow": dict(self.of_counts), "intake": dict(self.intake_counts), "threads": dict(self.thread_ids), "wire": self.logic.wire_stats.as_dict(),
                      "t_wall": self.clock.now()}
         layout = {"indent": 1} if final else {"separators": (",", ":")}
         self._state_writer.put(json.dumps(state, sort_keys=True, **layout).encode())
@@ -179,6 +180,7 @@ class SdviscApp(app_manager.OSKenApp):
     def _intake_loop(self) -> None:
         """The intake socket: every datagram waiting at a wake-up is one decision of the controller."""
         sock, poller = self._intake, select.poll()
+        self.thread_ids["intake"] = threading.get_native_id()
         poller.register(sock, select.POLLIN)
         while not STOPPING:
             if not poller.poll(INTAKE_POLL_MS):
@@ -201,6 +203,7 @@ class SdviscApp(app_manager.OSKenApp):
                 self.logger.exception("intake: a decision on %d datagrams failed", len(batch))
 
     def _timer_loop(self) -> None:
+        self.thread_ids["timer"] = threading.get_native_id()
         while not STOPPING:
             with self._lock:
                 now = self.clock.now()
