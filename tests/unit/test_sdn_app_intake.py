@@ -4,6 +4,8 @@ is counted and logged without ending the thread."""
 
 from __future__ import annotations
 
+import json
+import os
 import socket
 import time
 
@@ -76,3 +78,16 @@ def test_a_decision_that_raises_is_counted_and_the_intake_goes_on(app, monkeypat
     send([(SDC_IP, heartbeat(2))])
     assert wait_for(lambda: app.logic.counters["heartbeats"] == 1)
     assert app._intake_thread.is_alive()
+
+
+def test_the_published_state_names_the_apps_threads_by_kernel_id(app):
+    """benchmarks/sdn_app_threads.py reads each thread's CPU from /proc by these ids."""
+    assert wait_for(lambda: {"intake", "timer"} <= set(app.thread_ids))
+    pid = os.getpid()
+    for tid in app.thread_ids.values():
+        assert os.path.exists(f"/proc/{pid}/task/{tid}")  # a thread of this process
+    assert app.thread_ids["intake"] != app.thread_ids["timer"]
+    app._publish()
+    state = app.state_dir / "sdn_state.json"
+    assert wait_for(lambda: state.exists() and "threads" in json.loads(state.read_text() or "{}"))
+    assert json.loads(state.read_text())["threads"] == app.thread_ids
