@@ -2,8 +2,10 @@
 
 Targets: the project's processes (SDN app, plant, SDC, OWFCC, impairment elements, tcpdump started
 by a run, Mininet host shells), Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
-the testbed's switches), and veth/tap devices named after them (``s1-eth2``, ``sub1``…). ``mn -c``
-misses the userspace datapath's leftovers; this does not.
+the testbed's switches), and veth/tap devices named after them (``s1-eth2``, ``sub1``…), and the stand-in
+servers of the cluster tests (host_tools/servers.py: namespaces ``sdvisc-srv*``, their daemons, the LAN
+bridge ``sdvlan0`` and its veths, the servers' key directory — unless another live process owns them).
+``mn -c`` misses the userspace datapath's leftovers; this does not.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import signal
 import subprocess
 import time
 
-from host_tools import cpu_split, ovs_revalidation
+from host_tools import cpu_split, ovs_revalidation, servers
 
 SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
 BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
@@ -58,7 +60,7 @@ def _started_by_a_run(pid: str) -> bool:
 def project_processes() -> list[tuple[int, str]]:
     """(pid, cmdline) of processes a run starts, except this process and its ancestors (a deployable
     service only if a run started it: :data:`RUN_MARKER`)."""
-    own = {os.getpid(), os.getppid()}
+    own = {os.getpid(), os.getppid()} | servers.protected_pids()  # (another live process's servers)
     found = []
     for entry in os.listdir("/proc"):
         if not entry.isdigit() or int(entry) in own:
@@ -125,12 +127,14 @@ def leftovers() -> dict:
     return {"processes": [p for p, _ in project_processes()], "bridges": testbed_bridges(), "links": testbed_links(),
             "netns": testbed_netns(),
             "cpu_split": ["ovs-vswitchd pinned"] if cpu_split.pinned() else [],
-            "switch_revalidation": ["max-revalidator changed"] if ovs_revalidation.changed() else []}
+            "switch_revalidation": ["max-revalidator changed"] if ovs_revalidation.changed() else [],
+            "servers": servers.leftovers()}
 
 
 def clean(verbose: bool = False) -> dict:
     """Remove all leftovers; returns what was removed."""
-    removed = {"processes": kill_processes(), "bridges": [], "links": [], "netns": [],
+    removed_servers = servers.remove_servers(leftovers_only=True)  # first: daemons and sessions, by namespace
+    removed = {"processes": kill_processes(), "bridges": [], "links": [], "netns": [], "servers": removed_servers,
                "cpu_split": ["ovs-vswitchd unpinned"] if cpu_split.restore() else [],
                "switch_revalidation": ["max-revalidator restored"] if ovs_revalidation.restore() else []}
     bridges = testbed_bridges()

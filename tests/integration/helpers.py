@@ -55,7 +55,7 @@ def assert_no_leftovers() -> None:
 
     left = leftovers()
     assert left == {"processes": [], "bridges": [], "links": [], "netns": [], "cpu_split": [],
-                    "switch_revalidation": []}, \
+                    "switch_revalidation": [], "servers": []}, \
         f"a run left things behind: {left}"
     # Mininet host shells are gone too (their network namespaces die with them)
     shells = subprocess.run(["pgrep", "-f", "mininet:"], capture_output=True, text=True).stdout.split()

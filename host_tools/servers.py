@@ -1,0 +1,422 @@
+"""Stand-in servers on this machine, for Mininet's cluster mode (issue 30; docs/cluster.md).
+
+Each server ``sdvisc-srv<i>`` is a network namespace plus a private mount (and UTS) namespace in
+which its own Open vSwitch daemons (``ovsdb-server``, ``ovs-vswitchd``: own database, run and log
+directories on tmpfs) and its own ``sshd`` run. The servers share a LAN: a veth from each server
+(``eth0`` inside, ``sdvsrv<i>`` outside) on the Linux bridge :data:`LAN_BRIDGE` in the root namespace,
+which also gets the LAN's first address, so the root namespace — the "head" machine where the runner
+and the SDN app run — reaches every server. Server ``i`` gets the LAN's address ``10 + i``.
+
+The servers belong to the process that made them (its PID and start time are in the key directory):
+while it lives, another process's :func:`leftovers` does not list them and its clean-up leaves them
+(and their Mininet shells) alone; once it is gone they are leftovers.
+
+Code that uses a server reaches it over ssh only (:attr:`Server.ssh`), as it would reach a real
+machine: an ssh session lands in the server's namespaces and sees its private Open vSwitch. The key
+that opens them is made per :func:`make_servers` call in a private temporary directory (never the
+user's ``~/.ssh``).
+
+:func:`remove_servers` removes everything: every process in a server's network or mount namespace
+(found by namespace inode, not by name), the ssh clients that use the servers' key, the namespaces,
+the bridge, the veths and the key directory. :func:`leftovers` lists what is there
+(``sdvisc clean`` uses both: host_tools/cleanup.py).
+"""
+
+from __future__ import annotations
+
+import glob
+import ipaddress
+import os
+import re
+import shlex
+import shutil
+import signal
+import subprocess
+import tempfile
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+NETNS_PREFIX = "sdvisc-srv"
+NETNS_RE = re.compile(rf"^{NETNS_PREFIX}\d+$")
+LAN_BRIDGE = "sdvlan0"
+VETH_RE = re.compile(r"^sdvsrv\d+$")
+"""The root-namespace ends of the servers' LAN veths."""
+SERVER_LAN_INTF = "eth0"
+KEYDIR_PREFIX = "sdvisc-servers-"
+OWNER_FILE = "owner"
+VXLAN_OVERHEAD = 50
+"""Bytes a VXLAN tunnel adds over IPv4: outer Ethernet 14 + IPv4 20 + UDP 8 + VXLAN 8."""
+OVS_SCHEMA = "/usr/share/openvswitch/vswitch.ovsschema"
+SSHD = "/usr/sbin/sshd"
+READY_TIMEOUT_S = 20.0
+_INITS: list[subprocess.Popen] = []
+
+
+def netns_name(index: int) -> str:
+    return f"{NETNS_PREFIX}{index}"
+
+
+def veth_name(index: int) -> str:
+    return f"sdvsrv{index}"
+
+
+@dataclass
+class Server:
+    """One stand-in server: reach it with :attr:`ssh` (or :meth:`run`) as a real machine."""
+
+    name: str
+    index: int
+    ip: str
+    key: str
+    """The private key that opens the server (root)."""
+    user: str = "root"
+    lan_mtu: int = 1500
+    head_ip: str = ""
+    """The head machine's (root namespace's) address on the servers' LAN."""
+    ssh_options: list[str] = field(default_factory=list)
+
+    def __post_init__(self):
+        if not self.ssh_options:
+            self.ssh_options = ssh_options(self.key)
+
+    @property
+    def dest(self) -> str:
+        return f"{self.user}@{self.ip}"
+
+    @property
+    def ssh(self) -> list[str]:
+        """The ssh command prefix: ``ssh -i KEY -o BatchMode=yes ... root@IP``."""
+        return ["ssh", *self.ssh_options, self.dest]
+
+    def run(self, cmd: str, timeout: float = 30, check: bool = False) -> subprocess.CompletedProcess:
+        """Run the shell command ``cmd`` on the server over ssh (stdout and stderr captured, text)."""
+        res = subprocess.run([*self.ssh, cmd], capture_output=True, text=True, timeout=timeout,
+                             stdin=subprocess.DEVNULL)
+        if check and res.returncode != 0:
+            raise RuntimeError(f"{self.name}: {cmd!r} exited {res.returncode}: {res.stderr.strip()}")
+        return res
+
+
+def ssh_options(key: str) -> list[str]:
+    """ssh options (no destination) that open a server with ``key``: no prompt, no known-hosts file."""
+    return ["-i", key, "-o", "BatchMode=yes", "-o", "StrictHostKeyChecking=no",
+            "-o", "UserKnownHostsFile=/dev/null", "-o", "LogLevel=ERROR", "-o", "ConnectTimeout=5",
+            "-o", "IdentitiesOnly=yes"]
+
+
+def _ip(*args: str, check: bool = True) -> str:
+    res = subprocess.run(["ip", *args], capture_output=True, text=True, timeout=20)
+    if check and res.returncode != 0:
+        raise RuntimeError(f"ip {' '.join(args)}: {res.stderr.strip()}")
+    return res.stdout
+
+
+def ensure_sshd() -> None:
+    """Install openssh-server if missing (Debian), without ever starting the system's ssh service."""
+    if os.path.exists(SSHD):
+        return
+    if not shutil.which("apt-get"):
+        raise RuntimeError("sshd missing: install openssh-server")
+    policy = Path("/usr/sbin/policy-rc.d")
+    had_policy = policy.exists()
+    if not had_policy:  # invoke-rc.d then starts no service during the install
+        policy.write_text("#!/bin/sh\nexit 101\n")
+        policy.chmod(0o755)
+    try:
+        env = dict(os.environ, DEBIAN_FRONTEND="noninteractive")
+        subprocess.run(["apt-get", "install", "-y", "-qq", "--no-install-recommends", "openssh-server"],
+                       check=True, capture_output=True, env=env, timeout=600)
+    finally:
+        if not had_policy:
+            policy.unlink(missing_ok=True)
+
+
+def _init_script(name: str, ip: str, confdir: Path) -> str:
+    """The server's init, run in its network namespace under ``unshare --mount --uts``: private tmpfs
+    over /run (so /run/openvswitch and /run/sshd), /etc/openvswitch and /var/log/openvswitch; a fresh
+    database; ovsdb-server and ovs-vswitchd with the flags ``ovs-ctl start`` uses; then ``sshd -D``
+    as the long-lived process."""
+    db = "/etc/openvswitch/conf.db"
+    sock = "/run/openvswitch/db.sock"
+    log = "/var/log/openvswitch"
+    run = "/run/openvswitch"
+    system_id = uuid.uuid4()
+    lines = [
+        "set -e",
+        f"hostname {name}",
+        f"mount -t tmpfs -o mode=0755 {name} /run",
+        f"mkdir -p {run} /run/sshd",
+        f"mount -t tmpfs -o mode=0755 {name} /etc/openvswitch",
+        f"mount -t tmpfs -o mode=0755 {name} {log}",
+        f"ovsdb-tool create {db} {OVS_SCHEMA}",
+        f"ovsdb-server {db} -vconsole:emer -vsyslog:err -vfile:info --remote=punix:{sock}"
+        " --private-key=db:Open_vSwitch,SSL,private_key --certificate=db:Open_vSwitch,SSL,certificate"
+        " --bootstrap-ca-cert=db:Open_vSwitch,SSL,ca_cert"
+        f" --no-chdir --log-file={log}/ovsdb-server.log --pidfile={run}/ovsdb-server.pid --detach --monitor",
+        f"ovs-vsctl --no-wait -- init -- set Open_vSwitch . external-ids:system-id={system_id}"
+        f" external-ids:hostname={name} external-ids:rundir={run}",
+        "ulimit -n 65535 2>/dev/null || true",
+        f"ovs-vswitchd unix:{sock} -vconsole:emer -vsyslog:err -vfile:info --mlockall"
+        f" --no-chdir --log-file={log}/ovs-vswitchd.log --pidfile={run}/ovs-vswitchd.pid --detach --monitor",
+        "ovs-vsctl --timeout=10 show > /dev/null",
+        f"exec {SSHD} -D -e -f {confdir}/sshd_config",
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def _sshd_config(ip: str, confdir: Path, authorized: Path) -> str:
+    return "\n".join([
+        f"ListenAddress {ip}",
+        f"HostKey {confdir}/ssh_host_ed25519_key",
+        f"AuthorizedKeysFile {authorized}",
+        "PermitRootLogin prohibit-password",
+        "PubkeyAuthentication yes",
+        "PasswordAuthentication no",
+        "KbdInteractiveAuthentication no",
+        "UsePAM no",
+        "StrictModes no",
+        "UseDNS no",
+        "PrintMotd no",
+        "PidFile /run/sshd.pid",
+        "MaxSessions 100",
+        "MaxStartups 100:30:200",
+        "AcceptEnv LANG LC_*",
+        "Subsystem sftp internal-sftp",
+    ]) + "\n"
+
+
+def _keygen(path: Path, comment: str) -> None:
+    subprocess.run(["ssh-keygen", "-q", "-t", "ed25519", "-N", "", "-C", comment, "-f", str(path)],
+                   check=True, capture_output=True, timeout=30)
+
+
+def make_servers(n: int, lan: str = "10.250.0.0/24", mtu: int = 1500) -> list[Server]:
+    """Make ``n`` servers ``sdvisc-srv1``… on the LAN ``lan`` (the head: its first address; server
+    ``i``: address ``10 + i``), the LAN's MTU ``mtu``. Leftover servers of an earlier call are
+    removed first. Returns when every server answers over ssh with its own Open vSwitch."""
+    if not 1 <= n <= 50:
+        raise ValueError(f"make_servers: 1..50 servers, not {n}")
+    network = ipaddress.ip_network(lan)
+    if network.num_addresses < 64:
+        raise ValueError(f"make_servers: LAN {lan} too small")
+    ensure_sshd()
+    remove_servers()
+    prefix = network.prefixlen
+    head_ip = str(network.network_address + 1)
+    keydir = Path(tempfile.mkdtemp(prefix=KEYDIR_PREFIX))
+    os.chmod(keydir, 0o700)
+    (keydir / OWNER_FILE).write_text(f"{os.getpid()} {_start_time(os.getpid())}\n")
+    key = keydir / "id_ed25519"
+    _keygen(key, "sdvisc-servers")
+    authorized = keydir / "authorized_keys"
+    shutil.copy(f"{key}.pub", authorized)
+    servers = []
+    try:
+        _ip("link", "add", LAN_BRIDGE, "type", "bridge", "stp_state", "0", "forward_delay", "0")
+        _ip("link", "set", LAN_BRIDGE, "mtu", str(mtu))
+        _ip("addr", "add", f"{head_ip}/{prefix}", "dev", LAN_BRIDGE)
+        _ip("link", "set", LAN_BRIDGE, "up")
+        for i in range(1, n + 1):
+            name = netns_name(i)
+            ip = str(network.network_address + 10 + i)
+            confdir = keydir / name
+            confdir.mkdir()
+            _keygen(confdir / "ssh_host_ed25519_key", name)
+            (confdir / "sshd_config").write_text(_sshd_config(ip, confdir, authorized))
+            (confdir / "init.sh").write_text(_init_script(name, ip, confdir))
+            _ip("netns", "add", name)
+            _ip("link", "add", veth_name(i), "mtu", str(mtu), "type", "veth", "peer", "name", SERVER_LAN_INTF,
+                "mtu", str(mtu), "netns", name)
+            _ip("link", "set", veth_name(i), "master", LAN_BRIDGE, "up")
+            _ip("-n", name, "link", "set", "lo", "up")
+            _ip("-n", name, "addr", "add", f"{ip}/{prefix}", "dev", SERVER_LAN_INTF)
+            _ip("-n", name, "link", "set", SERVER_LAN_INTF, "up")
+            with open(confdir / "init.log", "wb") as log:
+                _INITS.append(subprocess.Popen(["ip", "netns", "exec", name, "unshare", "--mount", "--uts", "--propagation", "private",
+                                  "sh", str(confdir / "init.sh")],
+                                 stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT, start_new_session=True))
+            servers.append(Server(name=name, index=i, ip=ip, key=str(key), lan_mtu=mtu, head_ip=head_ip))
+        deadline = time.monotonic() + READY_TIMEOUT_S
+        for server in servers:
+            while True:
+                try:
+                    res = server.run("ovs-vsctl --timeout=5 get Open_vSwitch . external-ids:hostname", timeout=10)
+                except subprocess.TimeoutExpired:
+                    res = None
+                if res is not None and res.returncode == 0 and server.name in res.stdout:
+                    break
+                if time.monotonic() > deadline:
+                    log = (keydir / server.name / "init.log").read_text(errors="replace")
+                    raise RuntimeError(f"{server.name} did not come up within {READY_TIMEOUT_S:.0f} s: "
+                                       f"{res.stderr.strip() if res else 'ssh timed out'}; init log:\n{log}")
+                time.sleep(0.1)
+    except BaseException:
+        remove_servers()
+        raise
+    return servers
+
+
+def _ns_inode(path: str) -> int | None:
+    try:
+        return os.stat(path).st_ino
+    except OSError:
+        return None
+
+
+def server_netns() -> list[str]:
+    return sorted((n for n in _ip("netns", "list", check=False).split() if NETNS_RE.match(n)),
+                  key=lambda n: int(n[len(NETNS_PREFIX):]))
+
+
+def server_processes() -> list[tuple[int, str]]:
+    """(pid, cmdline) of every process of the servers: those in a server's network namespace (by
+    inode), those in the private mount namespace of a server's init (an ssh session's Mininet host
+    shells live in namespaces of their own but in that mount namespace), and the ssh clients on the
+    head that use a servers' key. This process and its parent are never listed."""
+    net_inodes = {i for n in server_netns() if (i := _ns_inode(f"/run/netns/{n}"))}
+    shared_mnt = {_ns_inode("/proc/1/ns/mnt"), _ns_inode("/proc/self/ns/mnt")}
+    own = {os.getpid(), os.getppid()}
+    entries = [int(e) for e in os.listdir("/proc") if e.isdigit()]
+    mnt_inodes = set()
+    for pid in entries:
+        if _ns_inode(f"/proc/{pid}/ns/net") in net_inodes:
+            mnt = _ns_inode(f"/proc/{pid}/ns/mnt")
+            if mnt not in shared_mnt:
+                mnt_inodes.add(mnt)
+    mnt_inodes.discard(None)
+    found = []
+    for pid in entries:
+        if pid in own:
+            continue
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as fh:
+                cmd = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
+        except OSError:
+            continue
+        if not cmd:  # a kernel thread
+            continue
+        mine = (_ns_inode(f"/proc/{pid}/ns/net") in net_inodes or _ns_inode(f"/proc/{pid}/ns/mnt") in mnt_inodes
+                or (cmd.startswith(("ssh ", "ssh:")) and f"/{KEYDIR_PREFIX}" in cmd))  # "ssh: PATH [mux]": a master
+        if mine:
+            found.append((pid, cmd))
+    return found
+
+
+def key_dirs() -> list[str]:
+    return sorted(glob.glob(os.path.join(tempfile.gettempdir(), f"{KEYDIR_PREFIX}*")))
+
+
+def server_links() -> list[str]:
+    names = []
+    for line in _ip("-o", "link", "show", check=False).splitlines():
+        parts = line.split(":")
+        if len(parts) >= 2:
+            name = parts[1].strip().split("@")[0]
+            if name == LAN_BRIDGE or VETH_RE.match(name):
+                names.append(name)
+    return names
+
+
+def _start_time(pid: int) -> int | None:
+    """The start time of process ``pid`` (clock ticks since boot), None if it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return int(fh.read().rsplit(")", 1)[1].split()[19])
+    except (OSError, IndexError, ValueError):
+        return None
+
+
+def owner() -> int | None:
+    """The live process that made the servers (:func:`make_servers` records its PID and start time
+    in the key directory), or None: no servers, or their maker is gone (they are left over)."""
+    for d in key_dirs():
+        try:
+            pid, start = (int(x) for x in Path(d, OWNER_FILE).read_text().split())
+        except (OSError, ValueError):
+            continue
+        if _start_time(pid) == start:
+            return pid
+    return None
+
+
+def in_use_elsewhere() -> bool:
+    """True while the servers belong to another live process (a test or run in progress): then
+    they are not leftovers, and the clean-up of any other process leaves them alone."""
+    pid = owner()
+    return pid is not None and pid != os.getpid()
+
+
+def protected_pids() -> set[int]:
+    """The servers' processes while :func:`in_use_elsewhere` (host_tools.cleanup spares them)."""
+    return {pid for pid, _ in server_processes()} if in_use_elsewhere() else set()
+
+
+def leftovers(include_in_use: bool = False) -> list[str]:
+    """What is there of the servers: namespaces, links, processes (``pid cmd``) and key directories;
+    nothing while they belong to another live process, unless ``include_in_use``."""
+    if not include_in_use and in_use_elsewhere():
+        return []
+    return ([f"netns {n}" for n in server_netns()] + [f"link {n}" for n in server_links()]
+            + [f"process {pid} {cmd[:80]}" for pid, cmd in server_processes()]
+            + [f"keydir {d}" for d in key_dirs()])
+
+
+def remove_servers(leftovers_only: bool = False) -> list[str]:
+    """Remove every server: kill their processes (a few rounds, for children forked meanwhile),
+    delete the veths, the namespaces, the LAN bridge and the key directories. Returns what was there.
+    ``leftovers_only`` (the clean-up's call): nothing while another live process owns them."""
+    if leftovers_only and in_use_elsewhere():
+        return []
+    found = leftovers(include_in_use=True)
+    for _round in range(10):
+        procs = server_processes()
+        if not procs:
+            break
+        for pid, _cmd in procs:
+            try:
+                os.kill(pid, signal.SIGKILL)
+            except (ProcessLookupError, PermissionError):
+                pass
+        deadline = time.monotonic() + 2
+        while time.monotonic() < deadline and any(os.path.exists(f"/proc/{p}") and not _zombie(p) for p, _ in procs):
+            time.sleep(0.02)
+    _reap()
+    for name in server_links():
+        if name != LAN_BRIDGE:
+            _ip("link", "del", name, check=False)
+    for name in server_netns():
+        _ip("netns", "del", name, check=False)
+    if LAN_BRIDGE in server_links():
+        _ip("link", "del", LAN_BRIDGE, check=False)
+    for d in key_dirs():
+        shutil.rmtree(d, ignore_errors=True)
+    return found
+
+
+def _zombie(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] == "Z"
+    except (OSError, IndexError):
+        return True
+
+
+def _reap() -> None:
+    """Collect the servers' inits this process started (they have been killed)."""
+    for proc in list(_INITS):
+        try:
+            proc.wait(timeout=2)
+        except subprocess.TimeoutExpired:
+            continue
+        _INITS.remove(proc)
+
+
+def tunnel_mtu(lan_mtu: int) -> int:
+    """The MTU of a VXLAN tunnel over a LAN of ``lan_mtu`` (never above Ethernet's 1500)."""
+    return min(1500, lan_mtu - VXLAN_OVERHEAD)
+
+
+def quoted(cmd: list[str]) -> str:
+    return " ".join(shlex.quote(c) for c in cmd)
