@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 import shlex
 import subprocess
+import sys
 import time
 
 import pytest
@@ -14,6 +15,7 @@ import pytest
 from host_tools import servers
 from host_tools.cleanup import leftovers
 from host_tools.servers import make_servers, remove_servers
+from tests.integration.helpers import ROOT
 from topologies.base import SERVICE_HOSTS, describe
 from topologies.cluster import VXLAN_PORT, ClusterNet
 from topologies.paper import PaperTopo
@@ -153,4 +155,25 @@ def test_paper_topology_across_two_servers_carries_udp_over_a_vxlan_tunnel():
                 net.stop()
         finally:
             remove_servers()
+    assert_servers_gone()
+
+
+def test_servers_of_a_live_process_are_spared_and_those_of_a_dead_one_are_leftovers():
+    maker = subprocess.Popen([sys.executable, "-c", "import sys, time; from host_tools.servers import make_servers; "
+                              "make_servers(1); print('up', flush=True); time.sleep(120)"],
+                             cwd=ROOT, stdout=subprocess.PIPE, text=True)
+    try:
+        assert maker.stdout.readline().strip() == "up"
+        assert servers.owner() == maker.pid
+        assert leftovers()["servers"] == [] and servers.remove_servers(leftovers_only=True) == []
+        assert servers.leftovers(include_in_use=True)  # they are there, in use
+        assert not servers.protected_pids().isdisjoint(p for p, _ in servers.server_processes())
+    finally:
+        maker.kill()
+        maker.wait()
+    assert servers.owner() is None  # the maker died without removing them: leftovers
+    left = leftovers()["servers"]
+    assert "netns sdvisc-srv1" in left and any("ovs-vswitchd" in item for item in left)
+    removed = servers.remove_servers(leftovers_only=True)  # what sdvisc clean calls first
+    assert "netns sdvisc-srv1" in removed
     assert_servers_gone()
