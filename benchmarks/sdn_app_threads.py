@@ -34,6 +34,8 @@ from pathlib import Path
 import yaml
 from scenario_runs import ROOT, finish, work_dir  # benchmarks/scenario_runs.py
 
+from sdvisc.netns import command_line
+
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
 
 
@@ -55,10 +57,7 @@ def app_pid(out_dir: Path, timeout_s: float = 120.0) -> int:
     while time.time() < deadline:
         for entry in os.listdir("/proc"):
             if entry.isdigit():
-                try:
-                    cmd = Path(f"/proc/{entry}/cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")
-                except OSError:
-                    continue
+                cmd = command_line(entry) or ""
                 if "-m sdn_app" in cmd and marker in cmd:
                     return int(entry)
         time.sleep(0.2)

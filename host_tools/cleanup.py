@@ -17,6 +17,7 @@ import subprocess
 import time
 
 from host_tools import cpu_split, ovs_revalidation, servers
+from sdvisc.netns import command_line
 
 SWITCH_NAME = r"(?:s\d+|l2|sub\d+|c\d+|t\d+x\d+)"
 BRIDGE_RE = re.compile(rf"^{SWITCH_NAME}$")
@@ -65,12 +66,8 @@ def project_processes() -> list[tuple[int, str]]:
     for entry in os.listdir("/proc"):
         if not entry.isdigit() or int(entry) in own:
             continue
-        try:
-            with open(f"/proc/{entry}/cmdline", "rb") as fh:
-                cmd = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
-        except OSError:
-            continue
-        if any(marker in cmd for marker in PROCESS_MARKERS):
+        cmd = command_line(entry)
+        if cmd and any(marker in cmd for marker in PROCESS_MARKERS):
             if any(marker in cmd for marker in DEPLOYABLE) and not _started_by_a_run(entry):
                 continue
             found.append((int(entry), cmd))

@@ -38,6 +38,8 @@ import uuid
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from sdvisc.netns import command_line
+
 NETNS_PREFIX = "sdvisc-srv"
 NETNS_RE = re.compile(rf"^{NETNS_PREFIX}\d+$")
 LAN_BRIDGE = "sdvlan0"
@@ -290,12 +292,8 @@ def server_processes() -> list[tuple[int, str]]:
     for pid in entries:
         if pid in own:
             continue
-        try:
-            with open(f"/proc/{pid}/cmdline", "rb") as fh:
-                cmd = fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
-        except OSError:
-            continue
-        if not cmd:  # a kernel thread
+        cmd = command_line(pid)
+        if not cmd:  # gone, or a kernel thread
             continue
         mine = (_ns_inode(f"/proc/{pid}/ns/net") in net_inodes or _ns_inode(f"/proc/{pid}/ns/mnt") in mnt_inodes
                 or (cmd.startswith(("ssh ", "ssh:")) and f"/{KEYDIR_PREFIX}" in cmd))  # "ssh: PATH [mux]": a master

@@ -89,3 +89,13 @@ def set_link_up(ifname: str, up: bool, pid: int | None = None) -> float:
         t = time.time()
         fcntl.ioctl(sock, SIOCSIFFLAGS, struct.pack("16sH", name, flags))
     return t
+
+
+def command_line(pid: int | str) -> str | None:
+    """The command line of process ``pid`` (arguments joined by spaces; empty for a kernel thread),
+    or None if it is gone."""
+    try:
+        with open(f"/proc/{pid}/cmdline", "rb") as fh:
+            return fh.read().replace(b"\0", b" ").decode(errors="replace").strip()
+    except OSError:
+        return None
