@@ -356,6 +356,10 @@ class Scenario(Strict):
                              "(1 for a real card: an RTDS runs in real time)")
         if peer is not None and not peer.emulate and self.time_scale != 1:
             raise ValueError(f"a real GTNET-SKT peer runs in real time: time_scale must be 1, not {self.time_scale}")
+        real = sorted(n for n, spec in self.topology.external_switches.items() if not spec.emulate)
+        if real and self.time_scale == "auto":
+            raise ValueError(f"time_scale: auto installs its probe flows with ovs-ofctl on every switch; the real "
+                             f"switches {', '.join(real)} are not this machine's: give a number")
         return self
 
     def turbines_named(self) -> list[str]:

@@ -56,6 +56,16 @@ def test_a_bad_device_key_is_named_with_what_was_expected(tmp_path, body, key, e
     assert f": {key}:" in text and expect in text, text
 
 
+def test_auto_time_scale_is_refused_with_a_real_switch(tmp_path):
+    path = tmp_path / "s.yaml"
+    path.write_text("name: t\nduration_s: 3\ntime_scale: auto\n" + PAPER.replace(
+        "}", ", external_switches: {s3: {emulate: false, interfaces: {s1: a, s2: b, s4: c, l2: d}}}}"))
+    with pytest.raises(ScenarioError, match="not this machine's"):
+        load_scenario(path)
+    path.write_text(path.read_text().replace("emulate: false", "emulate: true"))
+    assert load_scenario(path).time_scale == "auto"  # an emulated one takes the probe flows
+
+
 def test_every_device_problem_is_reported_at_once(tmp_path):
     text = problems(tmp_path, PAPER.replace("}", ", external_switches: {s9: {}, l2: {}}}")
                     + PEER.replace("switch: l2", "switch: s8"))
