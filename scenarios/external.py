@@ -31,12 +31,12 @@ import subprocess
 from dataclasses import dataclass, field
 
 from host_tools.cleanup import PEER_NETNS, veth_names
+from scenarios.netprep import CONTROLLER_MAX_BACKOFF_MS
 from scenarios.schema import Scenario
 from sdvisc import wire
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC
 from topologies.base import NET_PREFIX_LEN, default_datapath
 
-CONTROLLER_MAX_BACKOFF_MS = 1000
 START_MARGIN_S = 0.5  # a real peer: t = 0 this long (run clock) after the services are ready
 
 
