@@ -4,7 +4,7 @@ Targets: the project's processes (SDN app, plant, SDC, OWFCC, impairment element
 by a run, Mininet host shells), Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
 the testbed's switches), and veth/tap devices named after them (``s1-eth2``, ``sub1``…), and the stand-in
 servers of the cluster tests (host_tools/servers.py: namespaces ``sdvisc-srv*``, their daemons, the LAN
-bridge ``sdvlan0`` and its veths, the servers' key directory — unless another live process owns them).
+namespace ``sdvisc-lan``, the head's veth ``sdvlan0``, the servers' key directory — unless another live process owns them).
 ``mn -c`` misses the userspace datapath's leftovers; this does not.
 """
 

@@ -2,10 +2,13 @@
 
 Each server ``sdvisc-srv<i>`` is a network namespace plus a private mount (and UTS) namespace in
 which its own Open vSwitch daemons (``ovsdb-server``, ``ovs-vswitchd``: own database, run and log
-directories on tmpfs) and its own ``sshd`` run. The servers share a LAN: a veth from each server
-(``eth0`` inside, ``sdvsrv<i>`` outside) on the Linux bridge :data:`LAN_BRIDGE` in the root namespace,
-which also gets the LAN's first address, so the root namespace — the "head" machine where the runner
-and the SDN app run — reaches every server. Server ``i`` gets the LAN's address ``10 + i``.
+directories on tmpfs) and its own ``sshd`` run. The servers share a LAN, a switch of its own: the
+namespace :data:`LAN_NETNS` holding a Linux bridge, a veth from each server (``eth0`` inside,
+``sdvsrv<i>`` on the bridge) and one from the root namespace — the "head" machine where the runner and
+the SDN app run — whose root end :data:`LAN_HEAD_INTF` gets the LAN's first address. Server ``i`` gets
+the LAN's address ``10 + i``. The bridge is not in the root namespace because a host firewall there
+(Docker's ``FORWARD DROP`` with ``br_netfilter`` loaded) would filter what crosses it; the head's own
+traffic is local (INPUT/OUTPUT), as a real head's is.
 
 The servers belong to the process that made them (its PID and start time are in the key directory):
 while it lives, another process's :func:`leftovers` does not list them and its clean-up leaves them
@@ -18,7 +21,7 @@ user's ``~/.ssh``).
 
 :func:`remove_servers` removes everything: every process in a server's network or mount namespace
 (found by namespace inode, not by name), the ssh clients that use the servers' key, the namespaces,
-the bridge, the veths and the key directory. :func:`leftovers` lists what is there
+the LAN namespace (with its bridge and veths), the head's veth and the key directory. :func:`leftovers` lists what is there
 (``sdvisc clean`` uses both: host_tools/cleanup.py).
 """
 
@@ -42,9 +45,13 @@ from sdvisc.netns import command_line
 
 NETNS_PREFIX = "sdvisc-srv"
 NETNS_RE = re.compile(rf"^{NETNS_PREFIX}\d+$")
-LAN_BRIDGE = "sdvlan0"
+LAN_NETNS = "sdvisc-lan"
+"""The LAN's own namespace: its bridge :data:`LAN_BRIDGE` and the bridge ends of every veth."""
+LAN_BRIDGE = "br0"
+LAN_HEAD_INTF = "sdvlan0"
+"""The head's (root namespace's) interface on the LAN; its peer ``head`` is on the bridge."""
 VETH_RE = re.compile(r"^sdvsrv\d+$")
-"""The root-namespace ends of the servers' LAN veths."""
+"""The bridge ends (in :data:`LAN_NETNS`) of the servers' LAN veths."""
 SERVER_LAN_INTF = "eth0"
 KEYDIR_PREFIX = "sdvisc-servers-"
 OWNER_FILE = "owner"
@@ -216,10 +223,15 @@ def make_servers(n: int, lan: str = "10.250.0.0/24", mtu: int = 1500) -> list[Se
     shutil.copy(f"{key}.pub", authorized)
     servers = []
     try:
-        _ip("link", "add", LAN_BRIDGE, "type", "bridge", "stp_state", "0", "forward_delay", "0")
-        _ip("link", "set", LAN_BRIDGE, "mtu", str(mtu))
-        _ip("addr", "add", f"{head_ip}/{prefix}", "dev", LAN_BRIDGE)
-        _ip("link", "set", LAN_BRIDGE, "up")
+        _ip("netns", "add", LAN_NETNS)
+        lan = ("-n", LAN_NETNS)
+        _ip(*lan, "link", "add", LAN_BRIDGE, "mtu", str(mtu), "type", "bridge", "stp_state", "0", "forward_delay", "0")
+        _ip(*lan, "link", "set", LAN_BRIDGE, "up")
+        _ip("link", "add", LAN_HEAD_INTF, "mtu", str(mtu), "type", "veth", "peer", "name", "head", "mtu", str(mtu),
+            "netns", LAN_NETNS)
+        _ip(*lan, "link", "set", "head", "master", LAN_BRIDGE, "up")
+        _ip("addr", "add", f"{head_ip}/{prefix}", "dev", LAN_HEAD_INTF)
+        _ip("link", "set", LAN_HEAD_INTF, "up")
         for i in range(1, n + 1):
             name = netns_name(i)
             ip = str(network.network_address + 10 + i)
@@ -229,9 +241,9 @@ def make_servers(n: int, lan: str = "10.250.0.0/24", mtu: int = 1500) -> list[Se
             (confdir / "sshd_config").write_text(_sshd_config(ip, confdir, authorized))
             (confdir / "init.sh").write_text(_init_script(name, ip, confdir))
             _ip("netns", "add", name)
-            _ip("link", "add", veth_name(i), "mtu", str(mtu), "type", "veth", "peer", "name", SERVER_LAN_INTF,
+            _ip(*lan, "link", "add", veth_name(i), "mtu", str(mtu), "type", "veth", "peer", "name", SERVER_LAN_INTF,
                 "mtu", str(mtu), "netns", name)
-            _ip("link", "set", veth_name(i), "master", LAN_BRIDGE, "up")
+            _ip(*lan, "link", "set", veth_name(i), "master", LAN_BRIDGE, "up")
             _ip("-n", name, "link", "set", "lo", "up")
             _ip("-n", name, "addr", "add", f"{ip}/{prefix}", "dev", SERVER_LAN_INTF)
             _ip("-n", name, "link", "set", SERVER_LAN_INTF, "up")
@@ -268,8 +280,13 @@ def _ns_inode(path: str) -> int | None:
 
 
 def server_netns() -> list[str]:
+    """The servers' namespaces, in order (not the LAN's: :func:`lan_netns`)."""
     return sorted((n for n in _ip("netns", "list", check=False).split() if NETNS_RE.match(n)),
                   key=lambda n: int(n[len(NETNS_PREFIX):]))
+
+
+def lan_netns() -> list[str]:
+    return [n for n in _ip("netns", "list", check=False).split() if n == LAN_NETNS]
 
 
 def server_processes() -> list[tuple[int, str]]:
@@ -277,7 +294,7 @@ def server_processes() -> list[tuple[int, str]]:
     inode), those in the private mount namespace of a server's init (an ssh session's Mininet host
     shells live in namespaces of their own but in that mount namespace), and the ssh clients on the
     head that use a servers' key. This process and its parent are never listed."""
-    net_inodes = {i for n in server_netns() if (i := _ns_inode(f"/run/netns/{n}"))}
+    net_inodes = {i for n in server_netns() + lan_netns() if (i := _ns_inode(f"/run/netns/{n}"))}
     shared_mnt = {_ns_inode("/proc/1/ns/mnt"), _ns_inode("/proc/self/ns/mnt")}
     own = {os.getpid(), os.getppid()}
     entries = [int(e) for e in os.listdir("/proc") if e.isdigit()]
@@ -307,12 +324,14 @@ def key_dirs() -> list[str]:
 
 
 def server_links() -> list[str]:
+    """The head's LAN interface in the root namespace (and, from older versions, a bridge or veth
+    ends left there)."""
     names = []
     for line in _ip("-o", "link", "show", check=False).splitlines():
         parts = line.split(":")
         if len(parts) >= 2:
             name = parts[1].strip().split("@")[0]
-            if name == LAN_BRIDGE or VETH_RE.match(name):
+            if name == LAN_HEAD_INTF or VETH_RE.match(name):
                 names.append(name)
     return names
 
@@ -356,14 +375,14 @@ def leftovers(include_in_use: bool = False) -> list[str]:
     nothing while they belong to another live process, unless ``include_in_use``."""
     if not include_in_use and in_use_elsewhere():
         return []
-    return ([f"netns {n}" for n in server_netns()] + [f"link {n}" for n in server_links()]
+    return ([f"netns {n}" for n in server_netns() + lan_netns()] + [f"link {n}" for n in server_links()]
             + [f"process {pid} {cmd[:80]}" for pid, cmd in server_processes()]
             + [f"keydir {d}" for d in key_dirs()])
 
 
 def remove_servers(leftovers_only: bool = False) -> list[str]:
     """Remove every server: kill their processes (a few rounds, for children forked meanwhile),
-    delete the veths, the namespaces, the LAN bridge and the key directories. Returns what was there.
+    delete the veths, the servers' and the LAN's namespaces and the key directories. Returns what was there.
     ``leftovers_only`` (the clean-up's call): nothing while another live process owns them."""
     if leftovers_only and in_use_elsewhere():
         return []
@@ -382,12 +401,9 @@ def remove_servers(leftovers_only: bool = False) -> list[str]:
             time.sleep(0.02)
     _reap()
     for name in server_links():
-        if name != LAN_BRIDGE:
-            _ip("link", "del", name, check=False)
-    for name in server_netns():
+        _ip("link", "del", name, check=False)
+    for name in server_netns() + lan_netns():
         _ip("netns", "del", name, check=False)
-    if LAN_BRIDGE in server_links():
-        _ip("link", "del", LAN_BRIDGE, check=False)
     for d in key_dirs():
         shutil.rmtree(d, ignore_errors=True)
     return found

@@ -30,7 +30,8 @@ def assert_servers_gone() -> None:
     left = leftovers()
     assert left["servers"] == [], f"servers left behind: {left['servers']}"
     assert not [n for n in left["netns"] if n.startswith(servers.NETNS_PREFIX)]
-    assert servers.server_netns() == [] and servers.key_dirs() == []
+    assert servers.server_netns() == [] and servers.lan_netns() == [] and servers.key_dirs() == []
+    assert servers.server_links() == []
 
 
 def root_ovs(*args: str) -> str:

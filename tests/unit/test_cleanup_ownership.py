@@ -7,8 +7,10 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 
 from host_tools.cleanup import RUN_MARKER, project_processes
+from sdvisc.netns import command_line
 
 
 def sleeper(module: str, marked: bool) -> subprocess.Popen:
@@ -17,7 +19,12 @@ def sleeper(module: str, marked: bool) -> subprocess.Popen:
     if marked:
         env.update([RUN_MARKER.split("=")])
     # "-m <module>" appears in the command line as a service's does (python -c ignores what follows)
-    return subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", "-m", module], env=env)
+    proc = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)", "-m", module], env=env)
+    # Popen returns once exec has begun; the new command line shows in /proc a moment later
+    deadline = time.monotonic() + 10
+    while module not in (command_line(proc.pid) or "") and time.monotonic() < deadline:
+        time.sleep(0.01)
+    return proc
 
 
 def test_only_services_a_run_started_are_the_clean_ups():
