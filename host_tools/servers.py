@@ -289,12 +289,14 @@ def lan_netns() -> list[str]:
     return [n for n in _ip("netns", "list", check=False).split() if n == LAN_NETNS]
 
 
-def server_processes() -> list[tuple[int, str]]:
+def server_processes(only: str | None = None) -> list[tuple[int, str]]:
     """(pid, cmdline) of every process of the servers: those in a server's network namespace (by
     inode), those in the private mount namespace of a server's init (an ssh session's Mininet host
     shells live in namespaces of their own but in that mount namespace), and the ssh clients on the
-    head that use a servers' key. This process and its parent are never listed."""
-    net_inodes = {i for n in server_netns() + lan_netns() if (i := _ns_inode(f"/run/netns/{n}"))}
+    head that use a servers' key. This process and its parent are never listed. ``only``: the
+    processes of that one server (its namespace's name), not the head's ssh clients."""
+    names = [only] if only else server_netns() + lan_netns()
+    net_inodes = {i for n in names if (i := _ns_inode(f"/run/netns/{n}"))}
     shared_mnt = {_ns_inode("/proc/1/ns/mnt"), _ns_inode("/proc/self/ns/mnt")}
     own = {os.getpid(), os.getppid()}
     entries = [int(e) for e in os.listdir("/proc") if e.isdigit()]
@@ -313,7 +315,7 @@ def server_processes() -> list[tuple[int, str]]:
         if not cmd:  # gone, or a kernel thread
             continue
         mine = (_ns_inode(f"/proc/{pid}/ns/net") in net_inodes or _ns_inode(f"/proc/{pid}/ns/mnt") in mnt_inodes
-                or (cmd.startswith(("ssh ", "ssh:")) and f"/{KEYDIR_PREFIX}" in cmd))  # "ssh: PATH [mux]": a master
+                or (not only and cmd.startswith(("ssh ", "ssh:")) and f"/{KEYDIR_PREFIX}" in cmd))  # "ssh: PATH [mux]"
         if mine:
             found.append((pid, cmd))
     return found
@@ -407,6 +409,24 @@ def remove_servers(leftovers_only: bool = False) -> list[str]:
     for d in key_dirs():
         shutil.rmtree(d, ignore_errors=True)
     return found
+
+
+def kill_server(name: str) -> list[int]:
+    """The loss of one server (its namespace's name): SIGKILL to every process of it, in rounds (a
+    dying parent may fork); its namespaces stay until :func:`remove_servers`. Returns the PIDs."""
+    killed: list[int] = []
+    for _round in range(5):
+        procs = server_processes(only=name)
+        if not procs:
+            break
+        for pid, _cmd in procs:
+            try:
+                os.kill(pid, signal.SIGKILL)
+                killed.append(pid)
+            except (ProcessLookupError, PermissionError):
+                pass
+        time.sleep(0.05)
+    return killed
 
 
 def _zombie(pid: int) -> bool:

@@ -34,6 +34,7 @@ import subprocess
 import sys
 import time
 from dataclasses import dataclass, field
+from functools import partial
 
 import networkx as nx
 import numpy as np
@@ -41,6 +42,7 @@ import numpy as np
 from plant.endpoint_tx import MeasPacker
 from plant.service import build_model
 from scenarios import configs
+from scenarios.remote_process import RemoteProcess
 from sdvisc import rxstamp, wire
 from sdvisc.config import write_config
 from sdvisc.netns import udp_socket_in
@@ -169,7 +171,7 @@ class PilotSetup:
     seq: int = 0  # MEAS counter, continued over the candidates (the SDC checks seq against t_sim)
     sent: dict = field(default_factory=dict)  # (wid, seq) -> (wall ns the MEAS was sent, wall ns its step began)
     step_start_ns: int = 0  # the current step's start (wall ns, the kernel stamps' clock)
-    pilot_pid: int | None = None
+    pilot_cpu_s: object = None  # () -> the pilot's CPU seconds so far (on its server, across servers)
     packer: MeasPacker = field(default_factory=lambda: MeasPacker(header=True))  # the plant service's encoder
 
 
@@ -227,7 +229,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ set-up and teardown
     def _ofctl(self, args: list[str], stdin: str | None = None) -> str:
-        res = subprocess.run(["ovs-ofctl", "-O", "OpenFlow13", *args], input=stdin, capture_output=True, text=True)
+        res = self.run.ovs_tool("ovs-ofctl", ["-O", "OpenFlow13", *args], switch=args[1], stdin=stdin)  # where it is
         if res.returncode != 0:
             raise RuntimeError(f"ovs-ofctl {' '.join(args)}: {res.stderr.strip()}")
         return res.stdout
@@ -248,17 +250,22 @@ class Calibration:
         cfg_path = write_config(cfg, run.out / "calibration_sdc_config.json")
         ready = run.out / "calibration_sdc.json"
         ready.unlink(missing_ok=True)
-        pilot = run.net.get(self.sdc_host).popen(
-            [sys.executable, "-m", "sdc_unit.pilot", "--config", str(cfg_path), "--ready", str(ready),
-             "--serve", ",".join(str(setup.wids[wt]) for wt in self.turbines)],
-            stdout=subprocess.DEVNULL, stderr=open(run.out / "calibration_sdc.log", "w"))  # noqa: SIM115
+        args = [sys.executable, "-m", "sdc_unit.pilot", "--config", str(cfg_path), "--ready", str(ready),
+                "--serve", ",".join(str(setup.wids[wt]) for wt in self.turbines)]
+        host = run.net.get(self.sdc_host)
+        log = open(run.out / "calibration_sdc.log", "w")  # noqa: SIM115 - the pilot's
+        if getattr(host, "isRemote", False):  # an SDC host on another server (a run across servers)
+            pilot = RemoteProcess(host, args, env=dict(os.environ), pidfile=run.out / "calibration_sdc.pid",
+                                  stdout=subprocess.DEVNULL, stderr=log)
+        else:
+            pilot = host.popen(args, stdout=subprocess.DEVNULL, stderr=log)
         deadline = time.time() + 60
         while not ready.exists():
             if pilot.poll() is not None or time.time() > deadline:
                 raise RuntimeError(f"calibration: the SDC pilot on {self.sdc_host} did not start; see "
                                    f"{run.out}/calibration_sdc.log")
             time.sleep(0.02)
-        setup.pilot_pid = pilot.pid
+        setup.pilot_cpu_s = pilot.cpu_seconds if isinstance(pilot, RemoteProcess) else partial(process_cpu_s, pilot.pid)
         return pilot
 
     def measure(self) -> dict:
@@ -334,14 +341,14 @@ class Calibration:
         back: dict[str, list[float]] = {wt: [] for wt in setup.turbines}
         answer: dict[str, list[float]] = {wt: [] for wt in setup.turbines}  # CTRL after its step began, wall ms
         setup.sent.clear()
-        cpu0, wall0 = process_cpu_s(setup.pilot_pid), time.time()
+        cpu0, wall0 = setup.pilot_cpu_s(), time.time()
         plant_s = self._probe(setup, period, steps, (rtt, back, answer))
         extended = False
         if not shortfalls(k, self.step_s, float(np.mean(plant_s)), 0.0, None) and borderline(
                 answer, answer_budget_s(period)):
             plant_s = np.concatenate([plant_s, self._probe(setup, period, steps, (rtt, back, answer))])
             steps, extended = 2 * steps, True
-        sdc_busy = (process_cpu_s(setup.pilot_pid) - cpu0) / (time.time() - wall0)
+        sdc_busy = (setup.pilot_cpu_s() - cpu0) / (time.time() - wall0)
         per_turbine = {wt: {"round_trip_ms": delay_summary(rtt[wt]), "to_turbine_ms": delay_summary(back[wt]),
                             "after_step_start_ms": delay_summary(answer[wt]), "missing": steps - len(rtt[wt])}
                        for wt in setup.turbines}

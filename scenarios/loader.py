@@ -15,6 +15,7 @@ from pydantic import TypeAdapter, ValidationError
 
 from plant.settable import ACTIONS as PLANT_ACTIONS
 from plant.settable import model_class, relative_params, settable_params, supported_actions
+from scenarios.cluster_spec import ClusterSpec, cluster_problems
 from scenarios.external_spec import PeerSpec, external_problems
 from scenarios.schema import EVENT_KINDS, Event, Scenario, TopologySpec
 from sdvisc.yaml_lines import line_of
@@ -81,6 +82,7 @@ class _Parts:
     turbines: list[tuple[tuple, str]]  # (key path, name) of sdn.visc_disabled and plant.record
     links: list[tuple[tuple, str, str]]  # (key path, a, b) of links and impairable entries
     peer: PeerSpec | None = None  # plant.peer (an external plant)
+    cluster: ClusterSpec | None = None  # cluster (the run across servers)
 
     @classmethod
     def of_scenario(cls, sc: Scenario) -> _Parts:
@@ -93,7 +95,7 @@ class _Parts:
         if isinstance(sc.impairable, list):
             links += [(("impairable", j), lk.a, lk.b) for j, lk in enumerate(sc.impairable)]
         return cls(sc.topology, sc.duration_s, sc.plant.model, list(enumerate(sc.timeline)), turbines, links,
-                   sc.plant.peer)
+                   sc.plant.peer, sc.cluster)
 
     @classmethod
     def of_partial(cls, data: dict, bad: set[tuple]) -> _Parts:
@@ -137,7 +139,11 @@ class _Parts:
             peer = PeerSpec.model_validate(plant["peer"]) if isinstance(plant.get("peer"), dict) else None
         except ValidationError:
             peer = None  # reported already
-        return cls(topology, duration, model, events, turbines, links, peer)
+        try:
+            cluster = ClusterSpec.model_validate(data["cluster"]) if isinstance(data.get("cluster"), dict) else None
+        except ValidationError:
+            cluster = None  # reported already
+        return cls(topology, duration, model, events, turbines, links, peer, cluster)
 
     def problems(self) -> list[tuple[tuple, str]]:
         out = []
@@ -157,6 +163,8 @@ class _Parts:
         topo = self.topology
         desc = describe(topos[topo.name](**topo.params()))
         problems = external_problems(desc, topo.external_switches, self.peer)
+        if self.cluster is not None:
+            problems += cluster_problems(desc, self.cluster, self.events)
         if self.peer is not None:  # the peer's turbines are hosts of the run (the card's), whether in the topology or not
             desc["hosts"].update({name: {"role": "turbine"} for name in self.peer.turbines})
         hosts = desc["hosts"]

@@ -29,12 +29,49 @@ def prepare_hosts(hosts, controller_vip: str, controller_vmac: str) -> None:
         for host in hosts:
             commands = [f"ethtool -K {intf.name} tx off > /dev/null" for intf in host.intfList() if intf.name != "lo"]
             if host.IP():
-                batch = Path(tmp) / f"{host.name}.batch"
-                batch.write_text("\n".join(neighbour_lines(host.name, host.defaultIntf().name, peers,
-                                                           [(controller_vip, controller_vmac)])) + "\n")
-                commands.append(f"ip -force -batch {batch}")
-            if commands:
-                host.cmd("; ".join(commands))
+                lines = neighbour_lines(host.name, host.defaultIntf().name, peers, [(controller_vip, controller_vmac)])
+                if getattr(host, "isRemote", False):  # another server: no file of this machine's there
+                    commands += remote_batches(lines)
+                else:
+                    batch = Path(tmp) / f"{host.name}.batch"
+                    batch.write_text("\n".join(lines) + "\n")
+                    commands.append(f"ip -force -batch {batch}")
+            for chunk in _chunks(commands):
+                host.cmd("; ".join(chunk))
+
+
+SHELL_LINE_MAX = 3000
+"""Characters per command line sent to a node's shell: a Mininet shell reads from a terminal in
+canonical mode, whose lines end at 4095 characters."""
+
+
+def remote_batches(lines: list[str]) -> list[str]:
+    """``ip -batch`` on a server without a file: ``printf`` piped into ``ip -force -batch -``, as many
+    commands as keep each under :data:`SHELL_LINE_MAX`."""
+    out, chunk = [], []
+    for line in lines:
+        if chunk and sum(len(x) + 3 for x in chunk) + len(line) > SHELL_LINE_MAX - 60:
+            out.append(_printf_batch(chunk))
+            chunk = []
+        chunk.append(line)
+    if chunk:
+        out.append(_printf_batch(chunk))
+    return out
+
+
+def _printf_batch(lines: list[str]) -> str:
+    return "printf '%s\\n' " + " ".join(f"'{x}'" for x in lines) + " | ip -force -batch -"
+
+
+def _chunks(commands: list[str]) -> list[list[str]]:
+    """``commands`` grouped so that each group joined by "; " stays under :data:`SHELL_LINE_MAX`."""
+    groups: list[list[str]] = []
+    for cmd in commands:
+        if groups and sum(len(c) + 2 for c in groups[-1]) + len(cmd) <= SHELL_LINE_MAX:
+            groups[-1].append(cmd)
+        else:
+            groups.append([cmd])
+    return groups
 
 
 CONTROLLER_MAX_BACKOFF_MS = 1000  # Open vSwitch's default, 8 s, made every auto-time-scale run wait ~5 s for
@@ -52,27 +89,30 @@ def controller_uuids(listing: dict, bridges: set[str]) -> list[str]:
     return [uuid for name, ref in listing["data"] if name in bridges for uuid in _uuids(ref)]
 
 
-def mark_switches(switches) -> None:
+def local_vsctl(args: list[str]) -> str:
+    """``ovs-vsctl ARGS`` on this machine (stdout); raises on failure."""
+    return subprocess.run(["ovs-vsctl", *args], check=True, capture_output=True, text=True, timeout=60).stdout
+
+
+def mark_switches(switches, vsctl=local_vsctl) -> None:
     """Every bridge of the run gets the external id ``sdvisc=1``, and its controller connections a
-    1 s reconnection back-off (one ovs-vsctl transaction)."""
+    1 s reconnection back-off (one ovs-vsctl transaction; ``vsctl``: where the bridges are)."""
     names = {sw.name for sw in switches}
     if not names:
         return
-    listing = subprocess.run(["ovs-vsctl", "--format=json", "--columns=name,controller", "list", "bridge"],
-                             check=True, capture_output=True, text=True, timeout=60).stdout
-    args = ["ovs-vsctl"]
+    listing = vsctl(["--format=json", "--columns=name,controller", "list", "bridge"])
+    args = []
     for name in sorted(names):
         args += ["--", "br-set-external-id", name, "sdvisc", "1"]
     for uuid in controller_uuids(json.loads(listing), names):
         args += ["--", "set", "controller", uuid, f"max_backoff={CONTROLLER_MAX_BACKOFF_MS}"]
-    subprocess.run(args, check=True, capture_output=True, timeout=60)
+    vsctl(args)
 
 
-def _bridge_controllers() -> dict[str, list[str]]:
+def _bridge_controllers(vsctl) -> dict[str, list[str]]:
     """Each bridge that has controllers -> their targets (in the Controller table's order)."""
     def listing(*args: str) -> dict:
-        return json.loads(subprocess.run(["ovs-vsctl", "--format=json", *args], check=True, capture_output=True,
-                                         text=True, timeout=60).stdout)
+        return json.loads(vsctl(["--format=json", *args]))
     bridges = listing("--columns=name,controller", "list", "bridge")
     controllers = listing("--columns=_uuid,target", "list", "controller")
     target = {row[0][1]: row[1] for row in controllers["data"]}
@@ -83,18 +123,18 @@ def _bridge_controllers() -> dict[str, list[str]]:
     return out
 
 
-def reconnect_controllers(switches) -> None:
+def reconnect_controllers(switches, vsctl=local_vsctl) -> None:
     """Make the run's switches connect to their controllers now: after ``time_scale: auto``'s
     calibration (no SDN app listened meanwhile) Open vSwitch had backed off to 8 s between attempts
     whatever max_backoff said (measured: switches connected 5–10 s after the app listened). The
     controllers are removed and created again (two transactions: one would keep the old
     connections), with the same targets and back-off."""
     names = {sw.name for sw in switches}
-    current = {b: t for b, t in _bridge_controllers().items() if b in names}
+    current = {b: t for b, t in _bridge_controllers(vsctl).items() if b in names}
     if not current:
         return
-    remove = ["ovs-vsctl"]
-    create = ["ovs-vsctl"]
+    remove = []
+    create = []
     for i, (bridge, targets) in enumerate(sorted(current.items())):
         remove += ["--", "del-controller", bridge]
         ids = []
@@ -103,6 +143,6 @@ def reconnect_controllers(switches) -> None:
             create += ["--", f"--id=@c{i}_{j}", "create", "controller", f'target="{tgt}"',
                        f"max_backoff={CONTROLLER_MAX_BACKOFF_MS}"]
         create += ["--", "set", "bridge", bridge, f"controller=[{','.join(ids)}]"]
-    subprocess.run(remove, check=True, capture_output=True, timeout=60)
-    subprocess.run(create, check=True, capture_output=True, timeout=60)
+    vsctl(remove)
+    vsctl(create)
 

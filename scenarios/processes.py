@@ -19,6 +19,7 @@ import time
 from pathlib import Path
 
 from host_tools.cleanup import RUN_MARKER
+from scenarios.remote_process import RemoteProcess
 
 MAX_RESTARTS = 3  # per service and run
 RESTARTABLE = (".sdc", "owfcc.owfcc", "controller", "controller2")  # the plant is the run's clock: never
@@ -49,7 +50,7 @@ class Processes:
     def __init__(self, out: Path, record) -> None:
         self.out = out
         self.record = record
-        self.procs: dict[str, subprocess.Popen] = {}
+        self.procs: dict[str, subprocess.Popen | RemoteProcess] = {}
         self.specs: dict[str, tuple] = {}  # how each service was started (to restart it)
         self.killed: set[str] = set()  # planned kills: never restarted
         self.restarts: dict[str, list[dict]] = {}
@@ -57,6 +58,7 @@ class Processes:
         self.no_controller: list[list[float | None]] = []  # [t_from, t_to or None]: no SDN app running
         self.controllers_stopping = False
         self._stdin_lock = threading.Lock()
+        self.extra_cpu = None  # () -> {name: CPU seconds} of processes not started here (a server's ovs-vswitchd)
 
     def start(self, name: str, args: list[str], host=None, stdin=None, mode: str = "w") -> subprocess.Popen:
         """Start ``args`` as ``name`` (in Mininet ``host``'s namespace if given); output to ``name.log``."""
@@ -71,6 +73,9 @@ class Processes:
         if host is None:
             proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
                                     start_new_session=True)
+        elif getattr(host, "isRemote", False):  # a host on another server (a run across servers)
+            proc = RemoteProcess(host, args, env=env, pidfile=self.out / f"{name}.pid", stdin=stdin, stdout=log,
+                                 stderr=subprocess.STDOUT)
         else:
             proc = host.popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env)
         self.procs[name] = proc
@@ -119,14 +124,14 @@ class Processes:
                 raise RunError(f"{what} not ready after {timeout_s:.0f} s; see {log}")
             time.sleep(0.02)
 
-    def wait_listening(self, name: str, port: int, what: str, timeout_s: float) -> None:
-        """Wait until ``name`` accepts TCP connections on 127.0.0.1:``port`` (an SDN app's OpenFlow port)."""
+    def wait_listening(self, name: str, port: int, what: str, timeout_s: float, host: str = "127.0.0.1") -> None:
+        """Wait until ``name`` accepts TCP connections on ``host``:``port`` (an SDN app's OpenFlow port)."""
         deadline = time.time() + timeout_s
         while time.time() < deadline:
             if self.procs[name].poll() is not None:
                 raise RunError(f"{what} exited with {self.procs[name].returncode}; see {self.out}/{name}.log")
             with socket.socket() as s:
-                if s.connect_ex(("127.0.0.1", port)) == 0:
+                if s.connect_ex((host, port)) == 0:
                     return
             time.sleep(0.1)
         raise RunError(f"{what} did not listen on port {port} within {timeout_s:.0f} s")
@@ -185,9 +190,12 @@ class Processes:
             pass
         out = {}
         for name, pid in pids.items():
-            seconds = cpu_seconds_of(pid)
+            proc = self.procs.get(name)
+            seconds = proc.cpu_seconds() if isinstance(proc, RemoteProcess) else cpu_seconds_of(pid)
             if seconds is not None:
                 out[name] = seconds
+        if self.extra_cpu is not None:
+            out.update(self.extra_cpu())
         return out
 
     # ------------------------------------------------------------------ the end

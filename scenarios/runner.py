@@ -22,11 +22,12 @@ from types import SimpleNamespace
 from host_tools import cleanup, cpu_split, ovs_revalidation
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibration_cache import after_run, choose_time_scale
+from scenarios.cluster_run import ClusterRun, set_link_by_shell
 from scenarios.external import ExternalDevices
 from scenarios.feedback import progress_line
 from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
-from scenarios.netprep import mark_switches, prepare_hosts, reconnect_controllers
+from scenarios.netprep import local_vsctl, mark_switches, prepare_hosts, reconnect_controllers
 from scenarios.processes import Processes, RunError
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
@@ -84,6 +85,7 @@ class Run:
         self.timeline = Timeline(self)
         self.impairments = Impairments(scenario, out_dir)  # link delay/jitter/loss/bandwidth (netem or elements)
         self.external = ExternalDevices(scenario)  # an external peer, hardware switches (scenarios/external.py)
+        self.cluster = ClusterRun(scenario.cluster) if scenario.cluster else None  # across servers
 
     # what summary.json reports about the processes
     procs = property(lambda self: self.processes.procs)
@@ -135,12 +137,17 @@ class Run:
         ports = [_free_port(), _free_port()]
         self._say(f"sdvisc: building topology {sc.topology.name} {sc.topology.params()} "
                   f"({len(self.desc['switches'])} switches, {len(self.desc['hosts'])} hosts, datapath {self.datapath})")
-        self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
-                           waitConnected=False, link=OVSLink if sc.switch_links == "patch" else Link)
-        self.net.addController("c0", controller=CheckedController, ip="127.0.0.1", port=ports[0])
-        if sc.sdn.redundancy:
-            self.net.addController("c1", controller=CheckedController, ip="127.0.0.1", port=ports[1])
         phase = self._phase_timer()
+        if self.cluster is not None:  # the switches and SDCs on servers, tunnels between places
+            self.cluster.start_servers()
+            phase("servers")
+            self.net = self.cluster.build_net(topo, self.desc, controller=None, build=False)
+            self._say(f"sdvisc: across servers {', '.join(self.cluster.servers)} (head {self.cluster.head_ip})")
+        else:
+            self.net = Mininet(topo=topo, switch=TestbedSwitch, controller=None, build=False, autoSetMacs=False,
+                               waitConnected=False, link=OVSLink if sc.switch_links == "patch" else Link)
+        for name, port in zip(("c0", "c1"), ports[:2 if sc.sdn.redundancy else 1]):
+            self.net.addController(name, controller=CheckedController, ip=self.controller_ip, port=port)
         self.net.build()
         if self.external.active:
             self.external.make(ports[0])
@@ -148,7 +155,8 @@ class Run:
         phase("mininet_build")
         self.net.start()
         phase("switches_start")
-        mark_switches(self.net.switches)
+        for vsctl, group in self.switch_groups(self.net.switches):
+            mark_switches(group, vsctl)
         self.switch_ports = switch_ports.use(switch_ports.port_names(self.net.switches), sc.switch_ports)
         if self.switch_ports.get("refused"):
             self._say(f"sdvisc: {sc.switch_ports} switch ports refused ({self.switch_ports['refused']}): using system ports")
@@ -165,9 +173,30 @@ class Run:
             phase("calibration")
         # once the hosts exist (the intake socket opens in ctl's); switches reconnect now, not after a back-off
         self._start_sdn_apps(ports)
-        reconnect_controllers([*self.net.switches, *(SimpleNamespace(name=n) for n in self.external.bridge_names())])
+        for vsctl, group in self.switch_groups([*self.net.switches, *(SimpleNamespace(name=n)
+                                                                     for n in self.external.bridge_names())]):
+            reconnect_controllers(group, vsctl)
         self._wait_switches()
         phase("switches_connect")
+        if self.cluster is not None:
+            self.processes.extra_cpu = self.cluster.cpu_seconds  # each server's ovs-vswitchd
+
+    @property
+    def controller_ip(self) -> str:
+        """Where the SDN app listens and the switches connect: the head's LAN address across servers."""
+        return self.cluster.head_ip if self.cluster is not None else "127.0.0.1"
+
+    def switch_groups(self, switches) -> list:
+        """(ovs-vsctl caller, switches) per machine that holds some of ``switches``."""
+        if self.cluster is not None:
+            return self.cluster.switch_groups(switches)
+        return [(local_vsctl, list(switches))] if switches else []
+
+    def ovs_tool(self, tool: str, args: list[str], switch: str, stdin: str | None = None) -> subprocess.CompletedProcess:
+        """``tool ARGS`` (ovs-ofctl, ...) on the machine that holds ``switch``."""
+        if self.cluster is not None:
+            return self.cluster.ovs_tool(tool, args, switch, stdin)
+        return subprocess.run([tool, *args], input=stdin, capture_output=True, text=True, timeout=60)
 
     def _phase_timer(self, into: dict[str, float] | None = None):
         """A function that records the wall seconds since its previous call under a phase's name
@@ -186,7 +215,7 @@ class Run:
         intake = self.net.get(INTAKE_HOST).pid if "intake_ports" in self.desc else None
         cfg_path = write_config(configs.app_config(sc, self.desc, str(self.out), self.clock_settings, intake_pid=intake),
                                 self.out / "sdn_config.json")
-        app = [self.python, "-m", "sdn_app", "--config", str(cfg_path)]
+        app = [self.python, "-m", "sdn_app", "--config", str(cfg_path), "--listen-host", self.controller_ip]
         a, b = (_free_port(), _free_port()) if sc.sdn.redundancy else (0, 0)  # the pair's peer heartbeat
         apps = ([("controller", ports[0], ["--role", "master", "--instance", "1", "--peer", f"{a}:{b}"]),
                  ("controller2", ports[1], ["--role", "slave", "--instance", "2", "--peer", f"{b}:{a}"])]
@@ -194,7 +223,7 @@ class Run:
         for name, port, role in apps:
             self.processes.start(name, app + ["--ofp-port", str(port), *role])
         for name, port, _ in apps:
-            self.processes.wait_listening(name, port, "SDN app", SWITCH_CONNECT_TIMEOUT_S)
+            self.processes.wait_listening(name, port, "SDN app", SWITCH_CONNECT_TIMEOUT_S, host=self.controller_ip)
 
     def _wait_switches(self) -> None:
         want = {s["dpid"] for s in self.desc["switches"].values() if s["openflow"]}
@@ -278,6 +307,8 @@ class Run:
             raise RunError(f"no link {a}-{b}")
         (self.links_down.discard if up else self.links_down.add)(tuple(sorted((a, b))))
         try:
+            if self.cluster is not None:  # ends on servers: through their nodes' shells
+                return self.clock.from_wall(set_link_by_shell(ends, up))
             return self.clock.from_wall(switch_links.set_link(ends, up, self.net.switches))
         except OSError as exc:
             raise RunError(f"cannot set the link {a}-{b} {'up' if up else 'down'}: {exc}") from exc
@@ -334,11 +365,15 @@ class Run:
             phase("processes")
             if self.net is not None:
                 try:
+                    if self.cluster is not None:
+                        self.cluster.prune_lost(self.net)
                     self.net.stop()
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
             phase("mininet_stop")
             self.external.remove()
+            if self.cluster is not None:
+                self.cluster.remove()
             cleanup.clean()  # also undoes the CPU split and the switches' revalidation period
             phase("cleanup")
 

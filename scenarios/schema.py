@@ -24,6 +24,7 @@ from typing import Annotated, Literal, get_args
 from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
 
 from plant.params import BatteryParams
+from scenarios.cluster_spec import ClusterSpec
 from scenarios.external_spec import ExternalSwitchSpec, PeerSpec
 from sdvisc.config import (
     BatterySoc,
@@ -299,6 +300,14 @@ class LoadStep(_Event):
     mw: float
 
 
+class ServerDown(_Event):
+    """A stand-in server of ``cluster.emulate`` is lost: every process in its namespaces is killed (its
+    Open vSwitch, sshd, host shells and services), as if the machine lost power."""
+
+    do: Literal["server_down"]
+    server: str
+
+
 class Fault(_Event):
     do: Literal["fault"]
     duration_s: float = Field(gt=0, description="cleared after this time")
@@ -310,7 +319,7 @@ class Scr(_Event):
 
 
 Event = Annotated[ViscOn | ViscOff | SetViscParams | LinkDown | LinkUp | PathLinkDown | RestoreLinks | Kill | SetParam
-                  | LoadStep | Fault | Scr | Fuzz | SpoofAk | Impair | ClearImpairments,
+                  | LoadStep | Fault | Scr | Fuzz | SpoofAk | Impair | ClearImpairments | ServerDown,
                   Field(discriminator="do")]
 EVENT_KINDS = tuple(get_args(cls.model_fields["do"].annotation)[0] for cls in get_args(get_args(Event)[0]))
 
@@ -347,6 +356,8 @@ class Scenario(Strict):
         "listed", description="links that get an impairment element (without netem): those in links and in "
                               "impair actions (listed), every switch-to-switch link (all), or these too")
     timeline: list[Event] = Field(default_factory=list, description="each t <= duration_s (checked by the loader)")
+    cluster: ClusterSpec | None = Field(None, description=(
+        "the network across servers with Mininet's cluster mode (scenarios/cluster_spec.py, docs/cluster.md)"))
 
     @model_validator(mode="after")
     def _external_plant_time(self):
@@ -360,6 +371,23 @@ class Scenario(Strict):
         if real and self.time_scale == "auto":
             raise ValueError(f"time_scale: auto installs its probe flows with ovs-ofctl on every switch; the real "
                              f"switches {', '.join(real)} are not this machine's: give a number")
+        return self
+
+    @model_validator(mode="after")
+    def _cluster_fits(self):
+        if self.cluster is None:
+            if any(e.do == "server_down" for e in self.timeline):
+                raise ValueError("server_down needs cluster (a server to lose)")
+            return self
+        refused = {"plant.peer": self.plant.peer is not None, "topology.external_switches": bool(self.topology.external_switches),
+                   "links": bool(self.links), "impairable": self.impairable != "listed",
+                   "impair actions": any(e.do in ("impair", "clear_impairments") for e in self.timeline),
+                   f"switch_ports: {self.switch_ports}": self.switch_ports != "system",
+                   f"switch_links: {self.switch_links}": self.switch_links != "veth",
+                   "switch_revalidation_ms": self.switch_revalidation_ms is not None}
+        if on := [k for k, v in refused.items() if v]:
+            raise ValueError(f"a run across servers (cluster) does not take {', '.join(on)} yet: those act on this "
+                             f"machine's switches, hosts or interfaces only")
         return self
 
     def turbines_named(self) -> list[str]:

@@ -314,6 +314,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "batteries": plant.get("batteries", {}),
         "peer": {k: card.get(k) for k in ("framing", "stream", "steps", "late_steps", "totals", "wire")} if card else None,
         "external": run.external.describe() if getattr(run, "external", None) else None,  # scenarios/external.py
+        "cluster": run.cluster.describe() if getattr(run, "cluster", None) else None,  # scenarios/cluster_run.py
         "t0_wall": run.t0,
         "turbines": turbines,
         "events": events,

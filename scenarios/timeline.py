@@ -81,6 +81,15 @@ class Timeline:
                 record["links"] = run.impairments.clear_all(round(t, 6), "timeline")
             else:
                 run.impairments.set(event.a, event.b, round(t, 6), "timeline", clear=True)
+        elif kind == "server_down":
+            paths = ((run.sdn_state() or {}).get("tables") or {}).get("paths") or {}
+            nodes = run.cluster.nodes_on(event.server)
+            for name in run.processes.procs:  # its services die with it: not crashes to restart
+                if name.split(".")[0] in nodes:
+                    run.processes.killed.add(name)
+            record["nodes"] = run.cluster.server_down(event.server, t)
+            record["affected"] = sorted(wt for wt, p in paths.items()
+                                        if p.get("sdc") in nodes or set(p.get("path", [])) & set(nodes))
         elif kind == "fault":
             run.processes.send("plant", {"type": "fault", "on": True})
             timer = threading.Timer(max(0.0, run.clock.wall_s(run.t0 + t + event.duration_s - run.clock.now())),

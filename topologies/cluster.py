@@ -40,7 +40,7 @@ from mininet.examples.cluster import (
 from mininet.link import Link, OVSLink
 from mininet.log import debug, info
 from mininet.net import Mininet
-from mininet.node import Host, OVSSwitch
+from mininet.node import Host, Node, OVSSwitch
 from mininet.util import quietRun
 
 from host_tools.servers import KEYDIR_PREFIX, Server, tunnel_mtu
@@ -49,6 +49,8 @@ from topologies.base import CheckedController, TestbedSwitch
 VXLAN_PORT = 4789
 """The IANA VXLAN port: a firewall between real servers must pass UDP to it."""
 OPENFLOW_PORT = 6653
+HEAD = "localhost"
+"""Mininet's name for this machine among a cluster's servers (``head=True``: nodes may stay here)."""
 TURBINE_RE = re.compile(r"^wt(\d+)_(\d+)$")
 
 
@@ -77,8 +79,11 @@ class ServerMixin(RemoteMixin):
         super().startShell(*args, **kwargs)
 
     def _popen(self, cmd, sudo=True, tt=True, **params):
-        if self.user == "root":  # remote: no "sudo -E" prefix; local: no "sudo -u root"
-            sudo = not self.isRemote
+        if not self.isRemote:  # on the head: a plain node's Popen. RemoteMixin's os.setpgrp would make the
+            # process a group leader, so "mnexec -d" forks and its parent exits at once (a service seen as ended)
+            return Node._popen(self, cmd.split() if isinstance(cmd, str) else cmd, **params)
+        if self.user == "root":  # no "sudo -E" prefix
+            sudo = False
         return super()._popen(cmd, sudo=sudo, tt=tt, **params)
 
 
@@ -101,6 +106,17 @@ class ServerSwitchMixin(ServerMixin):
     @classmethod
     def setup(cls):
         pass
+
+    @classmethod
+    def batchStartup(cls, switches, **kwargs):  # noqa: N802 - Mininet's name
+        """``RemoteOVSSwitch``'s per-server batches; then a bridge with flows of its own (the intake
+        bridge, :class:`topologies.base.IntakeBridge`) gets them: its own ``batchStartup``, later in the
+        method order than ``RemoteOVSSwitch``'s, is not reached."""
+        started = super().batchStartup(switches, **kwargs)
+        for switch in started:
+            if hasattr(switch, "add_flows"):
+                switch.add_flows()
+        return started
 
     def isOldOVS(self):  # noqa: N802 - Mininet's name
         """RemoteOVSSwitch's check without distutils' StrictVersion (deprecated; gone in Python 3.12)."""
@@ -193,7 +209,8 @@ class RemoteVXLANLink(RemoteLink):
                    + (f" address {addr}" if addr else "") + f" mtu {self.mtu} up")
             if node.inNamespace:
                 cmd += f" && ip link set {intf} netns {node.pid}"
-            out = node.rcmd(cmd)
+            out = node.rcmd(cmd) if node.isRemote else subprocess.run(  # the head: rcmd would not use a shell
+                ["sh", "-c", cmd], capture_output=True, text=True, timeout=30).stderr
             if out.strip():
                 raise RuntimeError(f"error creating VXLAN {intf} on {node} ({node.server}): {out.strip()}")
         return None
@@ -304,6 +321,9 @@ class ClusterNet(MininetCluster):
     topology become their server variants (:func:`server_class`, :class:`RemoteVXLANLink`); an
     ``OVSLink`` (patch port) between switches on two servers becomes a tunnel.
 
+    ``head``: this machine is a place too (:data:`HEAD`, first in the placers' server list), as in
+    Mininet's own cluster examples; its nodes are local.
+
     ``ssh_multiplex``: the nodes of a server share one ssh connection (OpenSSH's ControlMaster, its
     socket in a private temporary directory), ended by :meth:`stop`.
 
@@ -311,12 +331,12 @@ class ClusterNet(MininetCluster):
     ssh with the servers' options (no ``sudo`` for root)."""
 
     def __init__(self, servers: list[Server], topo=None, placement=None, controller_ip=None,
-                 controller_port=OPENFLOW_PORT, lan_mtu=None, ssh_multiplex=False, **params):
+                 controller_port=OPENFLOW_PORT, lan_mtu=None, ssh_multiplex=False, head=False, **params):
         if not servers:
             raise ValueError("ClusterNet: no servers")
         self.cluster_servers = {s.name: s for s in servers}
-        self.servers = [s.name for s in servers]
-        self.serverIP = {s.name: s.ip for s in servers}
+        self.servers = ([HEAD] if head else []) + [s.name for s in servers]
+        self.serverIP = {s.name: s.ip for s in servers} | ({HEAD: "127.0.0.1"} if head else {})
         self.user = servers[0].user
         self.connections = {}
         self.placement = placement or FarmPlacer
