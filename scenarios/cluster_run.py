@@ -39,6 +39,7 @@ class ClusterRun:
         self.lost: dict[str, float] = {}  # server -> scenario time it was lost
         self.net: ClusterNet | None = None
         self.made = False
+        self._tunnels: list[dict] | None = None
 
     # ------------------------------------------------------------------ set-up
     def start_servers(self) -> None:
@@ -140,6 +141,7 @@ class ClusterRun:
         gone, and a Mininet node's ``cmd`` waits for ever on a dead shell."""
         if not self.lost:
             return
+        self.tunnels()  # as built, for the summary
         gone = {n for s in self.lost for n in self.nodes_on(s)}
         net.hosts = [h for h in net.hosts if h.name not in gone]
         net.switches = [s for s in net.switches if s.name not in gone]
@@ -155,12 +157,16 @@ class ClusterRun:
             except Exception:  # noqa: BLE001 - teardown goes on; sdvisc clean finds what is left
                 pass
 
+    def tunnels(self) -> list[dict]:
+        """The tunnels as built: a, b and VNI of each (kept once read: a lost server's are pruned)."""
+        if self._tunnels is None and self.net is not None:
+            self._tunnels = [{"a": lk.intf1.node.name, "b": lk.intf2.node.name, "vni": lk.vni}
+                             for lk in self.net.links if isinstance(lk, RemoteVXLANLink) and lk.vni]
+        return self._tunnels or []
+
     def describe(self) -> dict:
         """summary.json ``cluster``: the servers, where every node ran, the tunnels, the lost servers."""
-        tunnels = []
-        if self.net is not None:
-            tunnels = [{"a": lk.intf1.node.name, "b": lk.intf2.node.name, "vni": lk.vni}
-                       for lk in self.net.links if isinstance(lk, RemoteVXLANLink) and lk.vni]
+        tunnels = self.tunnels()
         return {"servers": {n: {"address": s.ip, "emulated": self.made} for n, s in self.servers.items()},
                 "head_ip": self.head_ip if self.servers else None, "placement": dict(sorted(self.placement.items())),
                 "tunnel": self.spec.tunnel, "tunnels": tunnels, "lost": self.lost}

@@ -46,7 +46,10 @@ class ServerSpec(_Strict):
     @field_validator("address")
     @classmethod
     def _ipv4(cls, value: str) -> str:
-        ipaddress.IPv4Address(value)
+        try:
+            ipaddress.IPv4Address(value)
+        except ValueError:
+            raise ValueError(f"expected an IPv4 address, not {value!r}") from None
         return value
 
 

@@ -5,7 +5,7 @@ nothing) and with no threshold below which a repair disappears.
 The plant records every pause between two control packets longer than :data:`GAP_MIN_STEPS`
 samples (its receive loop reads packets once per step, so a pause is measured to a step). For a
 fault at ``t_f`` and a turbine it affects (``affected`` in the timeline record: the turbines whose
-path crossed the failed link, or that the killed SDC served; every turbine that was receiving
+path crossed the failed link, or that the killed SDC or lost server served; every turbine that was receiving
 control if the record does not say):
 
 * ``interruption_ms``: the longest pause that ends after ``t_f`` and begins before the turbine's
@@ -40,7 +40,7 @@ import numpy as np
 
 from plant.service import CTRL_GAP_STEPS as GAP_MIN_STEPS  # the plant records pauses longer than this (steps)
 
-FAULT_TYPES = ("link_down", "kill")
+FAULT_TYPES = ("link_down", "kill", "server_down")
 RESTORE_TYPES = ("link_up", "restore_links")
 """Timeline events that end a fault: measured as well (``restore_interruptions``: a link's return can
 interrupt control too, e.g. while the L2 switch relearns), never counted as the fault's."""

@@ -106,6 +106,8 @@ HOMONYMS = {  # one name, different things
     "owfcc": "the scenario's OWFCC section; the OWFCC's host name the SDN app gets",
     "batteries": "the scenario's battery section (turbines, soc_init); the plant's battery turbines (their SOC: "
                  "battery_soc_init)",
+    "emulate": "an external device made on this machine (yes/no: plant.peer, topology.external_switches); how many "
+               "stand-in servers to make (cluster)",
 }
 
 BASE = {"name": "t", "duration_s": 2.0, "timeline": [{"t": 0.5, "do": "visc_on", "wt": "wt1_1"}]}
