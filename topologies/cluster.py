@@ -28,6 +28,8 @@ import subprocess
 import tempfile
 from collections import Counter
 from functools import partial
+from itertools import groupby
+from operator import attrgetter
 
 from mininet.examples.cluster import (
     ClusterCleanup,
@@ -107,16 +109,23 @@ class ServerSwitchMixin(ServerMixin):
     def setup(cls):
         pass
 
+    argmax = 3000
+    """Characters per ``ovs-vsctl`` command of the batch start-up (Mininet's ``OVSSwitch.argmax`` is
+    128,000): it is typed into the server's shell, a terminal in canonical mode whose lines end at
+    4095 characters — a longer one is cut, and a server with four farm switches lost its bridges."""
+
     @classmethod
-    def batchStartup(cls, switches, **kwargs):  # noqa: N802 - Mininet's name
-        """``RemoteOVSSwitch``'s per-server batches; then a bridge with flows of its own (the intake
-        bridge, :class:`topologies.base.IntakeBridge`) gets them: its own ``batchStartup``, later in the
-        method order than ``RemoteOVSSwitch``'s, is not reached."""
-        started = super().batchStartup(switches, **kwargs)
-        for switch in started:
+    def batchStartup(cls, switches, **_kwargs):  # noqa: N802 - Mininet's name
+        """``RemoteOVSSwitch``'s per-server batches, in commands of at most :attr:`argmax` characters;
+        then a bridge with flows of its own (the intake bridge, :class:`topologies.base.IntakeBridge`)
+        gets them: its own ``batchStartup``, later in the method order, is not reached."""
+        for _server, group in groupby(sorted(switches, key=attrgetter("server")), attrgetter("server")):
+            group = tuple(group)
+            OVSSwitch.batchStartup.__func__(cls, group, run=group[0].cmd)
+        for switch in switches:
             if hasattr(switch, "add_flows"):
                 switch.add_flows()
-        return started
+        return switches
 
     def isOldOVS(self):  # noqa: N802 - Mininet's name
         """RemoteOVSSwitch's check without distutils' StrictVersion (deprecated; gone in Python 3.12)."""
