@@ -6,8 +6,10 @@ the turbine hosts, the plant-side layer-2 switches and the controller's intake h
 plant is one process that opens every turbine's socket in the turbine host's own network namespace
 (one model, one step; docs/cluster.md says why a relay per server was not chosen). The OpenFlow
 switches and the SDC hosts go to the servers: ``placement: by_role`` puts the OpenFlow switches on
-the servers in turn (in datapath-id order) and every SDC with its switch; a mapping ``{node: server}``
-(``head`` for this machine) overrides it per node. A link between two places is a VXLAN tunnel.
+the servers in turn (in datapath-id order) and every SDC with its switch; ``by_cluster`` puts an
+OpenFlow switch that turbines of farm cluster ``c`` hang on on server ``(c - 1) mod N`` and the
+others (substation, core) as ``by_role``; a mapping ``{node: server}`` (``head`` for this machine)
+overrides either per node. A link between two places is a VXLAN tunnel.
 
 ``servers`` names real machines (reached with ssh as root with a key, or a user with password-less
 sudo); ``emulate: N`` makes ``N`` stand-in servers on this machine for the run
@@ -60,8 +62,9 @@ class ClusterSpec(_Strict):
     emulate: int = Field(0, ge=0, le=8, description=(
         "make this many stand-in servers srv1..srvN on this machine for the run (tests; docs/cluster.md)"))
     lan: str = Field("10.250.0.0/24", description="emulate: the stand-in servers' LAN (head .1, server i .1i)")
-    placement: Literal["by_role"] | dict[str, ServerName] = Field("by_role", description=(
-        "by_role: OpenFlow switches on the servers in turn, each SDC with its switch, the rest on the head; or "
+    placement: Literal["by_role", "by_cluster"] | dict[str, ServerName] = Field("by_role", description=(
+        "by_role: OpenFlow switches on the servers in turn, each SDC with its switch, the rest on the head; "
+        "by_cluster: a switch with turbines of farm cluster c on server (c - 1) mod N, the others by role; or "
         "node -> server (head: this machine), the others by role"))
     tunnel: Literal["vxlan"] = Field("vxlan", description=(
         "links between places: VXLAN (UDP 4789; GRE is not in this project's kernels)"))
@@ -92,9 +95,16 @@ def place(desc: dict, topo_roles: dict[str, str], spec: ClusterSpec) -> dict[str
     servers = spec.server_names()
     explicit = spec.placement if isinstance(spec.placement, dict) else {}
     out: dict[str, str] = {}
-    openflow = sorted((n for n, s in desc["switches"].items() if s["openflow"]), key=lambda n: desc["switches"][n]["dpid"])
+    if spec.placement == "by_cluster":
+        for info in desc["hosts"].values():
+            if info["role"] == "turbine" and desc["switches"].get(info["switch"], {}).get("openflow"):
+                cluster_server = servers[(info["cluster"] - 1) % len(servers)]
+                out.setdefault(info["switch"], cluster_server)  # (its lowest cluster: hosts come in order)
+    openflow = sorted((n for n, s in desc["switches"].items() if s["openflow"] and n not in out),
+                      key=lambda n: desc["switches"][n]["dpid"])
     for i, name in enumerate(openflow):
-        out[name] = explicit.get(name, servers[i % len(servers)])
+        out[name] = servers[i % len(servers)]
+    out.update({n: w for n, w in explicit.items() if n in desc["switches"]})
     for name, info in desc["switches"].items():
         if not info["openflow"]:
             out[name] = HEAD

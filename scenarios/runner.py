@@ -29,6 +29,7 @@ from scenarios.impairments import Impairments
 from scenarios.live import Session, check_open_ended
 from scenarios.netprep import local_vsctl, mark_switches, prepare_hosts, reconnect_controllers
 from scenarios.processes import Processes, RunError
+from scenarios.run_state import RunState
 from scenarios.schema import Scenario
 from scenarios.summary import build_summary
 from scenarios.timeline import Timeline
@@ -50,7 +51,7 @@ def _raise_interrupt(signum, frame):
     raise KeyboardInterrupt(f"signal {signum}")
 
 
-class Run:
+class Run(RunState):
     """One scenario run; use :func:`run_scenario`."""
 
     def __init__(self, scenario: Scenario, out_dir: Path, *, quiet: bool = False) -> None:
@@ -237,26 +238,6 @@ class Run:
             time.sleep(0.1)
         raise RunError(f"switches did not connect to the SDN app within {SWITCH_CONNECT_TIMEOUT_S:.0f} s")
 
-    def _sdn_state_files(self) -> list[str]:
-        return ["sdn_state.json"] + (["sdn2_state.json"] if self.scenario.sdn.redundancy else [])
-
-    def _read_state(self, name: str) -> dict | None:
-        try:
-            return json.loads((self.out / name).read_text())
-        except (OSError, json.JSONDecodeError):
-            return None
-
-    def sdn_state(self) -> dict | None:
-        """The live view of the SDN app in charge (the master, with a redundant pair)."""
-        states = [s for s in (self._read_state(n) for n in self._sdn_state_files()) if s]
-        if not states:
-            return None
-        masters = [s for s in states if s.get("role") in ("master", "equal")]
-        return max(masters or states, key=lambda s: (s.get("generation", 0), s.get("t_wall", 0)))
-
-    def plant_status(self) -> dict | None:
-        return self._read_state("plant_status.json") or self._read_state("gtnet_card_status.json")
-
     def start_services(self) -> None:
         sc = self.scenario
         hosts = self.desc["hosts"]
@@ -288,16 +269,6 @@ class Run:
         if self.cpu_split["applied"]:  # where each process may run (summary.json cpu_split.seen)
             self.cpu_split["seen"] = cpu_split.seen({n: p.pid for n, p in self.procs.items()})
         self.wall_started = self.clock.to_wall(self.t0)
-
-    def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
-        """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""
-        state = self.sdn_state() or {}
-        path = state.get("tables", {}).get("paths", {}).get(wt, {}).get("path")
-        if not path:
-            return None
-        switches = self.desc["switches"]
-        inner = [(a, b) for a, b in zip(path, path[1:]) if a in switches and b in switches]
-        return inner[hop % len(inner)] if inner else None
 
     def set_link(self, a: str, b: str, up: bool) -> float:
         """Set the link a–b up or down (:func:`scenarios.switch_links.set_link`: both ends, the

@@ -43,6 +43,14 @@ def test_an_explicit_placement_wins_node_by_node():
     assert where["sdc1"] == "srv1"  # with its switch
 
 
+def test_by_cluster_puts_each_farm_cluster_switch_on_its_server():
+    desc = describe(topos["farm"](clusters=5, turbines=2, layout="compact"))
+    where = place(desc, {}, ClusterSpec(emulate=2, placement="by_cluster"))
+    assert [where[f"c{c}"] for c in range(1, 6)] == ["srv1", "srv2", "srv1", "srv2", "srv1"]
+    assert {where["sub1"], where["sub2"]} == {"srv1", "srv2"}  # the substation by role
+    assert where["sdc1"] == where["sub1"] and where["wt3_1"] == HEAD
+
+
 def test_real_servers_by_name():
     spec = ClusterSpec(servers={"rack-a": {"address": "192.0.2.10"}, "rack-b": {"address": "192.0.2.11", "user": "lab"}})
     assert spec.server_names() == ["rack-a", "rack-b"]
