@@ -16,7 +16,8 @@ from host_tools.servers import Server
 from scenarios.cluster_spec import HEAD, ClusterSpec, place
 from scenarios.netprep import local_vsctl
 from topologies.cluster import HEAD as MININET_HEAD
-from topologies.cluster import ClusterNet, DictPlacer, RemoteVXLANLink
+from topologies.cluster import ClusterNet, RemoteVXLANLink
+from topologies.placers import DictPlacer
 
 OVS_PIDFILE = "/run/openvswitch/ovs-vswitchd.pid"
 

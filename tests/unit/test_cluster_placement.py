@@ -9,17 +9,10 @@ import pytest
 
 from host_tools.servers import Server, ssh_options, tunnel_mtu
 from topologies import base
-from topologies.cluster import (
-    DictPlacer,
-    FarmPlacer,
-    RemoteVXLANLink,
-    RolePlacer,
-    ServerMixin,
-    ServerSwitch,
-    server_class,
-)
+from topologies.cluster import RemoteVXLANLink, ServerMixin, ServerSwitch, server_class
 from topologies.farm import FarmTopo
 from topologies.paper import PaperTopo
+from topologies.placers import DictPlacer, FarmPlacer, RolePlacer
 
 SERVERS = ["sdvisc-srv1", "sdvisc-srv2", "sdvisc-srv3"]
 
