@@ -92,7 +92,7 @@ SC_TD01 = Param("SC T'd0", {"3 s": {"condenser.td01": 3.0}, "10 s": {"condenser.
                 "Kundur Table 4.2, 3-10 s")
 SC_TD02 = Param("SC T''d0", {"0.02 s": {"condenser.td02": 0.02}, "0.05 s": {"condenser.td02": 0.05}}, "0.04 s",
                 "Kundur Table 4.2, 0.02-0.05 s")
-SC_XTR = Param("SC step-up x", {"0.10": {"condenser.x_tr": 0.10}, "0.15": {"condenser.x_tr": 0.15}}, "0.10",
+SC_XTR = Param("SC step-up x", {"0.10": {"condenser.x_tr": 0.10}, "0.15": {"condenser.x_tr": 0.15}}, "0.12",
                "IEC 60076-5 Table 1: at least 10 % for 25-40 MVA; 15 % the usual upper end of large step-ups")
 SC_H = Param("SC H", {"1.0 s": {"condenser.h": 1.0}, "2.0 s": {"condenser.h": 2.0}}, "1.2 s",
              "[assumed] condensers without flywheel 1-2 s (PARAMETERS.md: 1.2 typical)")
@@ -115,7 +115,7 @@ WPP_OFF = Param("plant voltage controller", {"off (unity-pf farm)": {"wpp.enable
 X_TTR = Param("turbine transformer x", {"0.08": {"grid.x_ttr": 0.08}, "0.10": {"grid.x_ttr": 0.10}}, "0.08",
               "IEC 60076-5 Table 1: at least 8 % for 6.3-25 MVA (11 MVA); 10 % a usual upper value")
 X_ONSHORE = Param("SDViSC step-up x", {"0.10": {"plant.x_onshore_step_up": 0.10},
-                                       "0.15": {"plant.x_onshore_step_up": 0.15}}, "0.10",
+                                       "0.15": {"plant.x_onshore_step_up": 0.15}}, "0.12",
                   "IEC 60076-5 Table 1: at least 10 % for 25-40 MVA; 15 % the usual upper end")
 K0 = Param("grid Z0/Z1", {"0.5": {"grid.k0_grid": 0.5}, "3.0": {"grid.k0_grid": 3.0}}, "1.0",
            "[assumed] 0.5 (a bus with several grounded-star transformers) to 3 (IEEE C62.92 / IEC 60071-1: "

@@ -42,7 +42,7 @@ def sc_rise(avr_k: float, x_tr: float, t_end: float = 6.0) -> dict:
 def main() -> int:
     t0 = time.time()
     result = {"benchmark": "f3_sc_sensitivity", "paper_rise": PAPER_RISE,
-              "defaults": {"avr_k": 200.0, "x_tr": 0.10, "m_q": 0.02},
+              "defaults": {"avr_k": 200.0, "x_tr": 0.12, "m_q": 0.02},
               "cases": [sc_rise(**c) for c in CASES]}
     result["wall_s"] = round(time.time() - t0, 1)
     print(json.dumps(result, indent=1))
