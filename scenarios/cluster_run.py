@@ -15,6 +15,7 @@ from host_tools import servers as stand_ins
 from host_tools.servers import Server
 from scenarios.cluster_spec import HEAD, ClusterSpec, place
 from scenarios.netprep import local_vsctl
+from scenarios.remote_process import as_root
 from topologies.cluster import HEAD as MININET_HEAD
 from topologies.cluster import ClusterNet, RemoteVXLANLink
 from topologies.placers import DictPlacer
@@ -87,7 +88,7 @@ class ClusterRun:
             return local_vsctl
 
         def vsctl(args: list[str]) -> str:
-            res = server.run(shlex.join(["ovs-vsctl", "--timeout=30", *args]), timeout=60)
+            res = server.run(as_root(server.user, shlex.join(["ovs-vsctl", "--timeout=30", *args])), timeout=60)
             if res.returncode != 0:
                 raise RuntimeError(f"{server.name}: ovs-vsctl {' '.join(args)}: {res.stderr.strip()}")
             return res.stdout
@@ -106,7 +107,7 @@ class ClusterRun:
         server = self.server_of(switch)
         if server is None:
             return subprocess.run([tool, *args], input=stdin, capture_output=True, text=True, timeout=60)
-        return subprocess.run([*server.ssh, shlex.join([tool, *args])], input=stdin, capture_output=True,
+        return subprocess.run([*server.ssh, as_root(server.user, shlex.join([tool, *args]))], input=stdin, capture_output=True,
                               text=True, timeout=60)
 
     # ------------------------------------------------------------------ while the run plays

@@ -24,11 +24,18 @@ PASSED_ENV_PREFIXES = ("PYTHON", "SDVISC", "OPENBLAS", "NUMBA", "OMP")
 PID_TIMEOUT_S = 20.0
 
 
-def remote_command(host_pid: int, args: list[str], env: dict[str, str], pidfile: Path) -> str:
-    """The shell command run on the server (see the module docstring)."""
+def remote_command(host_pid: int, args: list[str], env: dict[str, str], pidfile: Path, user: str = "root") -> str:
+    """The shell command run on the server (see the module docstring); a user other than root runs
+    it under ``sudo -n`` (password-less sudo, as Mininet's cluster mode needs)."""
     passed = " ".join(f"{k}={shlex.quote(v)}" for k, v in sorted(env.items()) if k.startswith(PASSED_ENV_PREFIXES))
-    return (f"echo $$ > {shlex.quote(str(pidfile))}; exec env {passed} mnexec -a {int(host_pid)} "
-            f"{shlex.join(args)}")
+    cmd = (f"echo $$ > {shlex.quote(str(pidfile))}; exec env {passed} mnexec -a {int(host_pid)} "
+           f"{shlex.join(args)}")
+    return cmd if user == "root" else f"sudo -n sh -c {shlex.quote(cmd)}"
+
+
+def as_root(user: str, cmd: str) -> str:
+    """``cmd`` for a server's shell reached as ``user``: under ``sudo -n`` unless root."""
+    return cmd if user == "root" else f"sudo -n sh -c {shlex.quote(cmd)}"
 
 
 class RemoteProcess:
@@ -43,7 +50,8 @@ class RemoteProcess:
         self.ssh = [a for a in host.server_ssh() if a != "-tt"]
         self.args = list(args)
         self._pid: int | None = None
-        cmd = remote_command(host.pid, args, env, self.pidfile)
+        self.user = getattr(host, "user", "root") or "root"
+        cmd = remote_command(host.pid, args, env, self.pidfile, self.user)
         self.proc = subprocess.Popen([*self.ssh, "sh", "-c", shlex.quote(cmd)], stdin=stdin, stdout=stdout,
                                      stderr=stderr, start_new_session=True)
         self.stdin = self.proc.stdin
@@ -81,7 +89,7 @@ class RemoteProcess:
             self.proc.send_signal(sig)
             return
         try:
-            subprocess.run([*self.ssh, f"kill -{int(sig)} {pid}"], capture_output=True, timeout=20,
+            subprocess.run([*self.ssh, as_root(self.user, f"kill -{int(sig)} {pid}")], capture_output=True, timeout=20,
                            stdin=subprocess.DEVNULL)
         except subprocess.TimeoutExpired:
             self.proc.kill()

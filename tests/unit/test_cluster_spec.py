@@ -144,3 +144,10 @@ def test_static_arp_for_a_host_on_a_server_fits_its_shell_lines():
         printf = c.split(" | ")[0]
         fed += subprocess.run(["sh", "-c", printf], capture_output=True, text=True, timeout=10).stdout.splitlines()
     assert fed == lines
+
+
+def test_a_server_user_other_than_root_runs_the_service_under_sudo(tmp_path):
+    args = ["python3", "-m", "sdc_unit.service", "--config", "/x.json"]
+    as_root = remote_command(7, args, {"SDVISC_RUN": "1"}, tmp_path / "p")
+    assert shlex.split(remote_command(7, args, {"SDVISC_RUN": "1"}, tmp_path / "p", user="lab")) == \
+        ["sudo", "-n", "sh", "-c", as_root]
