@@ -89,3 +89,23 @@ def test_the_loss_of_a_server_is_survived_by_sdc_failover(tmp_path):
     # the lost server's SDC died with it: not restarted, not counted as a crash
     assert s["processes_killed"] == ["sdc1.sdc"] and s["processes_exited_early"] == {}
     assert_no_leftovers()
+
+
+def test_fast_failover_groups_repair_a_failed_tunnel_in_the_data_plane(tmp_path):
+    """link_failure_ff across the servers: the watch port of s3's group is the tunnel's VXLAN device,
+    set down on both machines; the switches move wt1_1's traffic before any DR hold ends."""
+    path = tmp_path / "cluster_link_failure_ff.yaml"
+    path.write_text((SC / "cluster_link_failure_dr.yaml").read_text().replace(
+        "sdn: {dr_hold_s: 0.040, dynamic_routing: true, reroute_on_port_status: false}",
+        "sdn: {dr_hold_s: 0.040, dynamic_routing: true, fast_failover: true}").replace(
+        "name: cluster_link_failure_dr", "name: cluster_link_failure_ff"))
+    s = run_scenario(path, tmp_path / "out")
+    assert_placed_and_tunnelled(s)
+    fault = next(e for e in s["events"] if e["type"] == "link_down" and e["source"] == "timeline")
+    (rec,) = [r for r in s["interruptions"] if r["wt"] == "wt1_1"]
+    assert rec["recovered"] and rec["t_fault"] == pytest.approx(fault["t_effective"])
+    assert (rec["interruption_ms"] or 0.0) < 40.0, rec  # below the DR hold: the data plane repaired it
+    assert not [e for e in s["events"] if e["type"] == "dr" and e["source"] == "sdn_app" and not e.get("after_end")]
+    assert s["openflow"]["tx_OFPGroupMod"] >= 2
+    assert ctrl_after(s, 3.9)
+    assert_no_leftovers()
