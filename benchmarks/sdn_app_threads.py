@@ -34,20 +34,16 @@ from pathlib import Path
 import yaml
 from scenario_runs import ROOT, finish, work_dir  # benchmarks/scenario_runs.py
 
-from sdvisc.netns import command_line
-
-CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+from sdvisc.netns import CLOCK_TICKS, command_line, cpu_seconds_of
 
 
 def thread_cpu_s(pid: int) -> dict[int, float]:
     """CPU seconds (user + system) of each thread of ``pid``."""
     out = {}
     for tid in os.listdir(f"/proc/{pid}/task"):
-        try:
-            fields = Path(f"/proc/{pid}/task/{tid}/stat").read_text().rsplit(")", 1)[1].split()
-        except OSError:
-            continue
-        out[int(tid)] = (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+        seconds = cpu_seconds_of(f"{pid}/task/{tid}")
+        if seconds is not None:
+            out[int(tid)] = seconds
     return out
 
 

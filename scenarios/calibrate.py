@@ -45,7 +45,7 @@ from scenarios import configs
 from scenarios.remote_process import RemoteProcess
 from sdvisc import rxstamp, wire
 from sdvisc.config import write_config
-from sdvisc.netns import udp_socket_in
+from sdvisc.netns import cpu_seconds_of, udp_socket_in
 from sdvisc.stats import delay_summary
 from sdvisc.vocabulary import FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS
 
@@ -209,12 +209,6 @@ def pilot_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, lis
     return {sw: sorted(lines) for sw, lines in flows.items()}
 
 
-def process_cpu_s(pid: int) -> float:
-    """CPU seconds (user + system) of process ``pid`` (/proc)."""
-    fields = open(f"/proc/{pid}/stat").read().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
-
-
 class Calibration:
     """Runs the pilot on ``run``'s built network (see the module docstring)."""
 
@@ -265,7 +259,7 @@ class Calibration:
                 raise RuntimeError(f"calibration: the SDC pilot on {self.sdc_host} did not start; see "
                                    f"{run.out}/calibration_sdc.log")
             time.sleep(0.02)
-        setup.pilot_cpu_s = pilot.cpu_seconds if isinstance(pilot, RemoteProcess) else partial(process_cpu_s, pilot.pid)
+        setup.pilot_cpu_s = pilot.cpu_seconds if isinstance(pilot, RemoteProcess) else partial(cpu_seconds_of, pilot.pid)
         return pilot
 
     def measure(self) -> dict:

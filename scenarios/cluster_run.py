@@ -16,6 +16,7 @@ from host_tools.servers import Server
 from scenarios.cluster_spec import HEAD, ClusterSpec, place
 from scenarios.netprep import local_vsctl
 from scenarios.remote_process import as_root
+from sdvisc.netns import stat_cpu_seconds
 from topologies.cluster import HEAD as MININET_HEAD
 from topologies.cluster import ClusterNet, RemoteVXLANLink
 from topologies.placers import DictPlacer
@@ -131,9 +132,8 @@ class ClusterRun:
                 continue
             res = server.run(f"cat /proc/$(cat {OVS_PIDFILE})/stat", timeout=20)
             try:
-                fields = res.stdout.rsplit(")", 1)[1].split()
-                out[f"ovs-vswitchd@{name}"] = (int(fields[11]) + int(fields[12])) / 100
-            except (IndexError, ValueError):
+                out[f"ovs-vswitchd@{name}"] = stat_cpu_seconds(res.stdout)
+            except ValueError:
                 continue
         return out
 

@@ -20,6 +20,7 @@ from pathlib import Path
 
 from host_tools.cleanup import RUN_MARKER
 from scenarios.remote_process import RemoteProcess
+from sdvisc.netns import cpu_seconds_of
 
 MAX_RESTARTS = 3  # per service and run
 RESTARTABLE = (".sdc", "owfcc.owfcc", "controller", "controller2")  # the plant is the run's clock: never
@@ -28,16 +29,6 @@ READY_TIMEOUT_S = 120.0
 
 
 OVS_PIDFILE = "/var/run/openvswitch/ovs-vswitchd.pid"
-CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_seconds_of(pid: int) -> float | None:
-    """User + system CPU seconds of a process (its threads included), or None if it is gone."""
-    try:
-        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    except (OSError, IndexError):
-        return None
-    return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS  # utime, stime (fields 14, 15 of stat)
 
 
 class RunError(RuntimeError):

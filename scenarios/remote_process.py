@@ -19,6 +19,8 @@ import subprocess
 import time
 from pathlib import Path
 
+from sdvisc.netns import stat_cpu_seconds
+
 PASSED_ENV_PREFIXES = ("PYTHON", "SDVISC", "OPENBLAS", "NUMBA", "OMP")
 """Environment variables handed to a remote service (ssh does not pass the environment)."""
 PID_TIMEOUT_S = 20.0
@@ -112,12 +114,6 @@ class RemoteProcess:
         try:
             res = subprocess.run([*self.ssh, f"cat /proc/{pid}/stat"], capture_output=True, text=True, timeout=20,
                                  stdin=subprocess.DEVNULL)
-            fields = res.stdout.rsplit(")", 1)[1].split()
-            return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
-        except (subprocess.TimeoutExpired, IndexError, ValueError):
+            return stat_cpu_seconds(res.stdout)
+        except (subprocess.TimeoutExpired, ValueError):
             return None
-
-
-CLOCK_TICKS = 100
-"""USER_HZ: /proc's clock ticks per second on Linux (what ``getconf CLK_TCK`` says on every
-architecture Mininet runs on)."""

@@ -91,6 +91,29 @@ def set_link_up(ifname: str, up: bool, pid: int | None = None) -> float:
     return t
 
 
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK")
+"""/proc's clock ticks per second (USER_HZ: 100 on every Linux Mininet runs on, so a server's too)."""
+
+
+def stat_cpu_seconds(stat: str) -> float:
+    """User + system CPU seconds in the text of a ``/proc/PID/stat`` (fields 14 and 15: utime, stime);
+    ValueError if it is not one."""
+    try:
+        fields = stat.rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+    except (IndexError, ValueError):
+        raise ValueError("not the text of a /proc/PID/stat") from None
+
+
+def cpu_seconds_of(pid: int | str) -> float | None:
+    """User + system CPU seconds of process (or thread) ``pid`` (/proc), or None if it is gone."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return stat_cpu_seconds(fh.read())
+    except (OSError, ValueError):
+        return None
+
+
 def command_line(pid: int | str) -> str | None:
     """The command line of process ``pid`` (arguments joined by spaces; empty for a kernel thread),
     or None if it is gone."""
