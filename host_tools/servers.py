@@ -76,8 +76,8 @@ class Server:
     name: str
     index: int
     ip: str
-    key: str
-    """The private key that opens the server (root)."""
+    key: str | None
+    """The private key that opens the server (None: ssh's own keys and agent)."""
     user: str = "root"
     lan_mtu: int = 1500
     head_ip: str = ""
@@ -106,11 +106,12 @@ class Server:
         return res
 
 
-def ssh_options(key: str) -> list[str]:
-    """ssh options (no destination) that open a server with ``key``: no prompt, no known-hosts file."""
-    return ["-i", key, "-o", "BatchMode=yes", "-o", "StrictHostKeyChecking=no",
-            "-o", "UserKnownHostsFile=/dev/null", "-o", "LogLevel=ERROR", "-o", "ConnectTimeout=5",
-            "-o", "IdentitiesOnly=yes"]
+def ssh_options(key: str | None) -> list[str]:
+    """ssh options (no destination) that open a server with ``key`` (None: ssh's own keys and agent):
+    no prompt, no known-hosts file."""
+    with_key = ["-i", key, "-o", "IdentitiesOnly=yes"] if key else []
+    return [*with_key, "-o", "BatchMode=yes", "-o", "StrictHostKeyChecking=no",
+            "-o", "UserKnownHostsFile=/dev/null", "-o", "LogLevel=ERROR", "-o", "ConnectTimeout=5"]
 
 
 def _ip(*args: str, check: bool = True) -> str:

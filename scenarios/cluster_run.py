@@ -18,18 +18,16 @@ from scenarios.netprep import local_vsctl
 from scenarios.remote_process import as_root
 from sdvisc.netns import stat_cpu_seconds
 from topologies.cluster import HEAD as MININET_HEAD
-from topologies.cluster import ClusterNet, RemoteVXLANLink
+from topologies.cluster import ClusterNet, RemoteVXLANLink, head_address_towards
 from topologies.placers import DictPlacer
 
 OVS_PIDFILE = "/run/openvswitch/ovs-vswitchd.pid"
 
 
-def _head_address_towards(ip: str) -> str:
-    """This machine's source address for ``ip`` (``ip route get``)."""
-    out = subprocess.run(["ip", "route", "get", ip], capture_output=True, text=True, timeout=10).stdout
-    if " src " not in out:
-        raise RuntimeError(f"cluster: no route from this machine to the server {ip}")
-    return out.split(" src ")[1].split()[0]
+def _on(server: Server, tool: str, args: list[str], stdin: str | None = None) -> subprocess.CompletedProcess:
+    """``tool ARGS`` on ``server`` over ssh (as root: ``sudo -n`` for another user)."""
+    return subprocess.run([*server.ssh, as_root(server.user, shlex.join([tool, *args]))], input=stdin,
+                          capture_output=True, text=True, timeout=60)
 
 
 class ClusterRun:
@@ -54,11 +52,8 @@ class ClusterRun:
             self.servers = dict(zip(names, made))
             return
         for i, (name, real) in enumerate(self.spec.servers.items(), start=1):
-            server = Server(name=name, index=i, ip=real.address, key=real.key or "", user=real.user,
-                            head_ip=_head_address_towards(real.address))
-            if not real.key:  # ssh's own keys and agent
-                server.ssh_options = [o for o in server.ssh_options if o not in ("-i", "")]
-            self.servers[name] = server
+            self.servers[name] = Server(name=name, index=i, ip=real.address, key=real.key, user=real.user,
+                                        head_ip=head_address_towards(real.address))
 
     @property
     def head_ip(self) -> str:
@@ -89,7 +84,7 @@ class ClusterRun:
             return local_vsctl
 
         def vsctl(args: list[str]) -> str:
-            res = server.run(as_root(server.user, shlex.join(["ovs-vsctl", "--timeout=30", *args])), timeout=60)
+            res = _on(server, "ovs-vsctl", ["--timeout=30", *args])
             if res.returncode != 0:
                 raise RuntimeError(f"{server.name}: ovs-vsctl {' '.join(args)}: {res.stderr.strip()}")
             return res.stdout
@@ -108,8 +103,7 @@ class ClusterRun:
         server = self.server_of(switch)
         if server is None:
             return subprocess.run([tool, *args], input=stdin, capture_output=True, text=True, timeout=60)
-        return subprocess.run([*server.ssh, as_root(server.user, shlex.join([tool, *args]))], input=stdin, capture_output=True,
-                              text=True, timeout=60)
+        return _on(server, tool, args, stdin)
 
     # ------------------------------------------------------------------ while the run plays
     def nodes_on(self, server: str) -> list[str]:

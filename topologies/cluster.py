@@ -54,6 +54,14 @@ HEAD = "localhost"
 """Mininet's name for this machine among a cluster's servers (``head=True``: nodes may stay here)."""
 
 
+def head_address_towards(ip: str) -> str:
+    """This machine's source address for ``ip`` (``ip route get``): the head's address on a server's LAN."""
+    out = quietRun(f"ip route get {ip}")
+    if " src " not in out:
+        raise RuntimeError(f"no route from this machine to the server {ip}")
+    return out.split(" src ")[1].split()[0]
+
+
 class ServerMixin(RemoteMixin):
     """A ``RemoteMixin`` that reaches its server with ``ssh_options`` (the server's key and options,
     :func:`host_tools.servers.ssh_options`) and, as root on the server, without ``sudo``."""
@@ -204,7 +212,7 @@ class RemoteVXLANLink(RemoteLink):
             return self.makeTunnel(node2, node1, intfname2, intfname1, addr2, addr1)
         ip1, ip2 = node1.serverIP, node2.serverIP
         if node1.server == "localhost":  # the head's address toward the server, not 127.0.0.1
-            ip1 = quietRun(f"ip route get {ip2}").split(" src ")[1].split()[0]
+            ip1 = head_address_towards(ip2)
         type(self).VNI += 1
         self.vni = type(self).VNI
         debug(f"\n*** Make VXLAN tunnel VNI {self.vni} {node1.server}:{intfname1} == {node2.server}:{intfname2}")

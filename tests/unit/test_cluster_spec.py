@@ -151,3 +151,12 @@ def test_a_server_user_other_than_root_runs_the_service_under_sudo(tmp_path):
     as_root = remote_command(7, args, {"SDVISC_RUN": "1"}, tmp_path / "p")
     assert shlex.split(remote_command(7, args, {"SDVISC_RUN": "1"}, tmp_path / "p", user="lab")) == \
         ["sudo", "-n", "sh", "-c", as_root]
+
+
+def test_a_real_server_without_a_key_is_opened_with_sshs_own_keys():
+    from host_tools.servers import Server, ssh_options
+
+    assert "-i" not in ssh_options(None) and "IdentitiesOnly=yes" not in ssh_options(None)
+    assert ssh_options("/k")[:2] == ["-i", "/k"] and "BatchMode=yes" in ssh_options(None)
+    server = Server(name="rack-a", index=1, ip="192.0.2.10", key=None, user="lab")
+    assert server.ssh[-1] == "lab@192.0.2.10" and "-i" not in server.ssh
