@@ -42,7 +42,7 @@ import numpy as np
 from plant.endpoint_tx import MeasPacker
 from plant.service import build_model
 from scenarios import configs
-from scenarios.remote_process import RemoteProcess
+from scenarios.remote_process import RemoteProcess, popen_in
 from sdvisc import rxstamp, wire
 from sdvisc.config import write_config
 from sdvisc.netns import cpu_seconds_of, udp_socket_in
@@ -248,11 +248,8 @@ class Calibration:
                 "--serve", ",".join(str(setup.wids[wt]) for wt in self.turbines)]
         host = run.net.get(self.sdc_host)
         log = open(run.out / "calibration_sdc.log", "w")  # noqa: SIM115 - the pilot's
-        if getattr(host, "isRemote", False):  # an SDC host on another server (a run across servers)
-            pilot = RemoteProcess(host, args, env=dict(os.environ), pidfile=run.out / "calibration_sdc.pid",
-                                  stdout=subprocess.DEVNULL, stderr=log)
-        else:
-            pilot = host.popen(args, stdout=subprocess.DEVNULL, stderr=log)
+        pilot = popen_in(host, args, env=dict(os.environ), pidfile=run.out / "calibration_sdc.pid",
+                         stdout=subprocess.DEVNULL, stderr=log)  # (on its server across servers)
         deadline = time.time() + 60
         while not ready.exists():
             if pilot.poll() is not None or time.time() > deadline:

@@ -36,7 +36,7 @@ def prepare_hosts(hosts, controller_vip: str, controller_vmac: str) -> None:
                     batch = Path(tmp) / f"{host.name}.batch"
                     batch.write_text("\n".join(lines) + "\n")
                     commands.append(f"ip -force -batch {batch}")
-            for chunk in _chunks(commands):
+            for chunk in _groups(commands, 2, SHELL_LINE_MAX):
                 host.cmd("; ".join(chunk))
 
 
@@ -48,29 +48,22 @@ canonical mode, whose lines end at 4095 characters."""
 def remote_batches(lines: list[str]) -> list[str]:
     """``ip -batch`` on a server without a file: ``printf`` piped into ``ip -force -batch -``, as many
     commands as keep each under :data:`SHELL_LINE_MAX`."""
-    out, chunk = [], []
-    for line in lines:
-        if chunk and sum(len(x) + 3 for x in chunk) + len(line) > SHELL_LINE_MAX - 60:
-            out.append(_printf_batch(chunk))
-            chunk = []
-        chunk.append(line)
-    if chunk:
-        out.append(_printf_batch(chunk))
-    return out
+    quoted = [f"'{line}'" for line in lines]
+    return [f"printf '%s\\n' {' '.join(group)} | ip -force -batch -" for group in _groups(quoted, 1, SHELL_LINE_MAX - 40)]
 
 
-def _printf_batch(lines: list[str]) -> str:
-    return "printf '%s\\n' " + " ".join(f"'{x}'" for x in lines) + " | ip -force -batch -"
-
-
-def _chunks(commands: list[str]) -> list[list[str]]:
-    """``commands`` grouped so that each group joined by "; " stays under :data:`SHELL_LINE_MAX`."""
+def _groups(items: list[str], sep: int, limit: int) -> list[list[str]]:
+    """``items`` in order, grouped so that each group joined by ``sep`` characters stays within ``limit``
+    (an item longer than that goes alone)."""
     groups: list[list[str]] = []
-    for cmd in commands:
-        if groups and sum(len(c) + 2 for c in groups[-1]) + len(cmd) <= SHELL_LINE_MAX:
-            groups[-1].append(cmd)
+    size = 0
+    for item in items:
+        if groups and size + sep + len(item) <= limit:
+            groups[-1].append(item)
+            size += sep + len(item)
         else:
-            groups.append([cmd])
+            groups.append([item])
+            size = len(item)
     return groups
 
 

@@ -19,7 +19,7 @@ import time
 from pathlib import Path
 
 from host_tools.cleanup import RUN_MARKER
-from scenarios.remote_process import RemoteProcess
+from scenarios.remote_process import RemoteProcess, popen_in
 from sdvisc.netns import cpu_seconds_of
 
 MAX_RESTARTS = 3  # per service and run
@@ -64,11 +64,9 @@ class Processes:
         if host is None:
             proc = subprocess.Popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env,
                                     start_new_session=True)
-        elif getattr(host, "isRemote", False):  # a host on another server (a run across servers)
-            proc = RemoteProcess(host, args, env=env, pidfile=self.out / f"{name}.pid", stdin=stdin, stdout=log,
-                                 stderr=subprocess.STDOUT)
-        else:
-            proc = host.popen(args, stdin=stdin, stdout=log, stderr=subprocess.STDOUT, env=env)
+        else:  # (a host on another server: over ssh, scenarios/remote_process.py)
+            proc = popen_in(host, args, env=env, pidfile=self.out / f"{name}.pid", stdin=stdin, stdout=log,
+                            stderr=subprocess.STDOUT)
         self.procs[name] = proc
         return proc
 

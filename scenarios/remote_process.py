@@ -40,6 +40,14 @@ def as_root(user: str, cmd: str) -> str:
     return cmd if user == "root" else f"sudo -n sh -c {shlex.quote(cmd)}"
 
 
+def popen_in(host, args: list[str], *, env: dict[str, str], pidfile: Path, stdin=None, stdout=None, stderr=None):
+    """``args`` in Mininet ``host``'s namespaces: a :class:`RemoteProcess` if the host is on another
+    server (``pidfile``: where its PID goes), else the host's own ``popen``."""
+    if getattr(host, "isRemote", False):
+        return RemoteProcess(host, args, env=env, pidfile=pidfile, stdin=stdin, stdout=stdout, stderr=stderr)
+    return host.popen(args, stdin=stdin, stdout=stdout, stderr=stderr, env=env)
+
+
 class RemoteProcess:
     """``args`` in Mininet ``host``'s namespaces on its server (``host.isRemote``); ``pidfile``: where
     the server-side shell writes its PID (it becomes the service's by ``exec``)."""

@@ -33,6 +33,13 @@ def affected_by_kill(sdn_state: dict | None, host: str, process: str) -> list[st
     return sorted(paths)
 
 
+def affected_by_nodes(sdn_state: dict | None, nodes: list[str]) -> list[str]:
+    """The ViSC turbines a lost server interrupts: those whose installed path crosses one of its
+    ``nodes`` or whose SDC is one of them."""
+    paths = ((sdn_state or {}).get("tables") or {}).get("paths") or {}
+    return sorted(wt for wt, p in paths.items() if p.get("sdc") in nodes or set(p.get("path", [])) & set(nodes))
+
+
 class Timeline:
     """Acts on a running :class:`scenarios.runner.Run` (its processes, network and SDN state)."""
 
@@ -82,14 +89,12 @@ class Timeline:
             else:
                 run.impairments.set(event.a, event.b, round(t, 6), "timeline", clear=True)
         elif kind == "server_down":
-            paths = ((run.sdn_state() or {}).get("tables") or {}).get("paths") or {}
             nodes = run.cluster.nodes_on(event.server)
+            record["affected"] = affected_by_nodes(run.sdn_state(), nodes)  # (as the app saw it before)
             for name in run.processes.procs:  # its services die with it: not crashes to restart
                 if name.split(".")[0] in nodes:
                     run.processes.killed.add(name)
             record["nodes"] = run.cluster.server_down(event.server, t)
-            record["affected"] = sorted(wt for wt, p in paths.items()
-                                        if p.get("sdc") in nodes or set(p.get("path", [])) & set(nodes))
         elif kind == "fault":
             run.processes.send("plant", {"type": "fault", "on": True})
             timer = threading.Timer(max(0.0, run.clock.wall_s(run.t0 + t + event.duration_s - run.clock.now())),

@@ -6,7 +6,7 @@ from __future__ import annotations
 import pytest
 
 from scenarios.interruptions import aggregate, interruptions
-from scenarios.timeline import affected_by_kill, affected_by_link
+from scenarios.timeline import affected_by_kill, affected_by_link, affected_by_nodes
 
 T0 = 1000.0
 TS = 0.67e-3
@@ -101,6 +101,10 @@ def test_affected_turbines_come_from_the_published_paths():
     assert affected_by_link(None, "s1", "s3") == []
     assert affected_by_kill(state, "sdc2", "sdc") == ["wt2_1"]
     assert affected_by_kill(state, "controller", "controller") == ["wt1_1", "wt2_1"]
+    # a lost server: a path through one of its switches, or its SDC
+    assert affected_by_nodes(state, ["s4"]) == ["wt2_1"]
+    assert affected_by_nodes(state, ["s1", "s4", "sdc1"]) == ["wt1_1", "wt2_1"]
+    assert affected_by_nodes(state, ["sdc2"]) == ["wt2_1"] and affected_by_nodes(None, ["s1"]) == []
 
 
 def test_what_the_network_needed_is_the_first_datagram_through_again_by_its_send_time():
