@@ -69,8 +69,12 @@ def bare_plant(**grid) -> Plant:
 
 def _params(sc_connected: bool, grid: dict) -> PlantParams:
     """The plant's parameters with the SC in or out of service and the grid keys ``grid``
-    (``plant.params.GridParams`` fields, e.g. ``scr``, ``e_grid``, ``h``) set."""
+    (``plant.params.GridParams`` fields, e.g. ``scr``, ``e_grid``, ``h``) set; ``wpp_enabled=False``
+    among them takes the plant controller out of voltage control: IEC 61400-27-1's reactive-power
+    control mode at Q* = 0, whose steady state is every turbine at unity power factor."""
+    grid = dict(grid)
     pp = PlantParams(sc_connected=sc_connected)
+    pp.wpp.enabled = bool(grid.pop("wpp_enabled", pp.wpp.enabled))
     for key, value in grid.items():
         if not hasattr(pp.grid, key):
             raise TypeError(f"unknown grid parameter {key!r}")

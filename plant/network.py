@@ -32,8 +32,12 @@ fault-free positive-sequence Y (passive elements are symmetrical, x2 of the cond
 the grid's Z2 = Z1; grid-following converters inject no negative-sequence current, i.e. they
 are open circuits in the negative-sequence network). Z0 = k0 Z_g || Z_ontr || Z_sctr: both
 transformers are YNd with the grounded star on the pcc side, so the farm side and the condenser
-are cut off from the zero-sequence network. The positive-sequence voltages and currents are
-exact for this equivalent; phase quantities, sub-cycle peaks and DC offsets are not modelled.
+are cut off from the zero-sequence network; a step-up is in Z0 only while its side is in service
+(the SC's while it is connected, an onshore unit's while plugged: a YNd transformer switched out
+with its machine grounds nothing). Two-phase-to-ground fault (``fault_kind="llg"``, phases b and
+c): the shunt is Z2 || (Z0 + 3 Z_f). The positive-sequence voltages and currents are exact for
+this equivalent; :meth:`Network.fault_sequences` gives V2 and V0, from which the phase voltages
+follow (V_a = V1 + V2 + V0, ...); sub-cycle peaks and DC offsets are not modelled.
 """
 
 from __future__ import annotations
@@ -50,7 +54,16 @@ def _par(*zs: complex) -> complex:
     return 1.0 / sum(1.0 / z for z in zs)
 
 
+def phase_phasors(v1, v2, v0):
+    """Phase voltages (a, b, c) on the last axis from the sequence ones: V_a = V1 + V2 + V0,
+    V_b = a² V1 + a V2 + V0, V_c = a V1 + a² V2 + V0 (a = e^{j 2π/3})."""
+    a = np.exp(2j * np.pi / 3.0)
+    rot = np.array([1.0, a * a, a])
+    return np.multiply.outer(v1, rot) + np.multiply.outer(v2, rot.conj()) + np.multiply.outer(v0, np.ones(3))
+
+
 NETWORK_MODELS = ("quasi_static", "dynamic_phasor")
+FAULT_KINDS = ("slg", "llg")  # single-phase-to-ground (phase a), two-phase-to-ground (phases b and c)
 
 FACTOR_CACHE_SIZE = 16
 """Network states whose factorisation is kept (each ~(nodes)^2 complex: ~0.2 MB on the farm)."""
@@ -83,6 +96,7 @@ class Network:
         self.scr = g.scr
         self.fault_on = False
         self.z_f = 0.0j
+        self.fault_kind = "slg"
         self.sc_connected = params.sc_connected
         self.n_factorizations = 0
         self.cache_hits = 0  # factorisations taken from the cache (see factorize)
@@ -213,31 +227,56 @@ class Network:
         i = (v[self.branch_a] - v[self.branch_b]) / self.branch_z
         return float(np.sum(self.branch_z.real * np.abs(i) ** 2))
 
+    def z_zero(self) -> complex:
+        """Zero-sequence Thevenin impedance at the pcc: the grounded grid (k0 Z_g) in parallel with the
+        YNd step-ups whose grounded star faces the pcc and whose side is in service (the onshore
+        transformer on the farm; the SC's while connected; each plugged onshore unit's). The delta
+        windings cut everything behind them off."""
+        zs = [self.p.grid.k0_grid * self.z_grid()]
+        if self.sc_connected:
+            zs.append(self.z_sc_tr())
+        if self.topology == "farm":
+            zs.append(self.z_ontr())
+            for k in range(self.n_farm, self.n):
+                if self.plugged[k]:  # its step-up alone: the turbine transformers are behind its delta
+                    zs.append(complex(0.0, self.p.x_onshore_step_up) * self.sb / self.p.onshore_unit_mva)
+        return _par(*zs)
+
+    def fault_shunt_of(self, z2: complex, z0: complex) -> complex:
+        """The fault's positive-sequence shunt from the sequence impedances at the pcc: Z2 + Z0 + 3 Z_f
+        (single phase to ground) or Z2 || (Z0 + 3 Z_f) (two phases to ground)."""
+        z0f = z0 + 3.0 * self.z_f
+        return z2 + z0f if self.fault_kind == "slg" else z2 * z0f / (z2 + z0f)
+
     def z_fault_shunt(self) -> complex:
-        """Positive-sequence shunt Z2 + Z0 + 3 Z_f of a single-phase-to-ground fault at the pcc."""
+        """Positive-sequence shunt of the fault at the pcc (:meth:`fault_shunt_of`)."""
         y0 = self.build_y(with_fault=False)
         e = np.zeros(self.n_nodes, dtype=complex)
         e[self.pcc] = 1.0
         self.z2col = np.linalg.solve(y0, e)  # negative-sequence transfer impedances to the pcc
         z2 = self.z2col[self.pcc]
         self.n_factorizations += 1
-        zs = [self.p.grid.k0_grid * self.z_grid(), self.z_sc_tr()]
-        if self.topology == "farm":
-            zs.append(self.z_ontr())
-        z0 = _par(*zs)
+        z0 = self.z_zero()
         self.z2, self.z0 = z2, z0
-        return z2 + z0 + 3.0 * self.z_f
+        return self.fault_shunt_of(z2, z0)
 
     def fault_sequences(self, v1: np.ndarray):
         """Sequence quantities during the fault from the solved positive-sequence voltages v1.
 
-        Returns (i_f, v2, v0_pcc): fault current I_f = I1 = I2 = I0 at the pcc, negative-sequence
-        node voltages v2 = -z2col I_f, and the pcc zero-sequence voltage -Z0 I_f.
+        Returns (i_f, v2, v0_pcc): the positive-sequence fault current I1 = V1/Z_shunt leaving the
+        network at the pcc, the negative-sequence node voltages v2 = -z2col I2 and the pcc's
+        zero-sequence voltage -Z0 I0, with I2 = I0 = I1 (single phase) or I2 = -V1/Z2,
+        I0 = -V1/(Z0 + 3 Z_f) (two phases: V1 = V2 at the fault, I1 + I2 + I0 = 0).
         """
         if not self.fault_on:
             return 0.0j, np.zeros_like(v1), 0.0j
-        i_f = v1[self.pcc] / (self.z2 + self.z0 + 3.0 * self.z_f)
-        return i_f, -self.z2col * i_f, -self.z0 * i_f
+        v_f = v1[self.pcc]
+        i1 = v_f / self.fault_shunt_of(self.z2, self.z0)
+        if self.fault_kind == "slg":
+            i2 = i0 = i1
+        else:
+            i2, i0 = -v_f / self.z2, -v_f / (self.z0 + 3.0 * self.z_f)
+        return i1, -self.z2col * i2, -self.z0 * i0
 
     # ---------------------------------------------------------------- factorisation
     def factorize(self) -> None:
@@ -287,7 +326,7 @@ class Network:
                      "_elements")
 
     def _state_key(self) -> tuple:
-        return (self.scr, self.fault_on, self.z_f, self.sc_connected, self.plugged.tobytes())
+        return (self.scr, self.fault_on, self.z_f, self.fault_kind, self.sc_connected, self.plugged.tobytes())
 
     def _compute(self) -> None:
         self.y = self.build_y()
@@ -365,9 +404,13 @@ class Network:
         self.plugged[np.atleast_1d(idx)] = bool(on)
         self.dirty = True
 
-    def set_fault(self, on: bool, z_f: complex = 0.0) -> None:
+    def set_fault(self, on: bool, z_f: complex = 0.0, kind: str = "slg") -> None:
+        """Fault at the pcc through z_f (network p.u.), ``kind`` one of FAULT_KINDS."""
+        if kind not in FAULT_KINDS:
+            raise ValueError(f"fault kind must be one of {FAULT_KINDS}, got {kind!r}")
         self.fault_on = bool(on)
         self.z_f = complex(z_f)
+        self.fault_kind = kind
         self.dirty = True
 
     def set_sc_connected(self, on: bool) -> None:

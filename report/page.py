@@ -16,7 +16,7 @@ table{border-collapse:collapse;width:100%;font-size:0.88em;margin:0.6em 0}
 th,td{border:1px solid #ccc;padding:0.3em 0.45em;vertical-align:top;text-align:left}
 th{background:#f0f0f0} code,pre{background:#f6f6f6;padding:0 0.2em;font-size:0.92em}
 pre{padding:0.5em;overflow-x:auto;white-space:pre-wrap}
-.v-yes{background:#d9f2d9}.v-partly{background:#fff2c2}.v-no{background:#f8d4d4}
+.v-yes{background:#d9f2d9}.v-partly{background:#fff2c2}.v-no{background:#f8d4d4}.v-consistent{background:#dde8f8}
 .v-failed{background:#e6c3f0}.v-not-run{background:#e4e4e4}.v-measured{background:#dde8f6}
 figure{margin:1em 0}figcaption{font-size:0.85em;font-style:italic;max-width:900px}
 img{max-width:100%;border:1px solid #ddd}.small{font-size:0.85em;color:#555}

@@ -7,7 +7,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-VERDICTS = ("yes", "partly", "no")  # what a computed finding can say
+VERDICTS = ("yes", "partly", "consistent", "no")  # what a computed finding can say ("consistent": report/verdicts.py)
 LOCK_WAIT_KEY = "network_lock_wait_s"  # Context.numbers: per network run, wall seconds waiting for the lock
 RERUN_KEY = "run_again"  # Context.numbers: the calibrated runs that did not hold and ran again at twice their k
 MEASURED = "measured"  # a question the paper does not ask (``PaperClaim.beyond``): a value, no verdict

@@ -9,6 +9,10 @@ from collections.abc import Sequence
 # within PARTLY is reproduced in kind (same direction and order of magnitude), else not.
 REL_YES = 0.10
 REL_PARTLY = 0.35
+# A number reached only through a parameter the paper does not state (a fault resistance, a fault type
+# where the text allows two): "consistent" when the value that reproduces it lies in a cited range —
+# reported with that value and the range, never counted as reproduced.
+CONSISTENT = "consistent"
 
 
 def relative_error(measured: float, paper: float) -> float:
@@ -46,3 +50,10 @@ def ordered(values: Sequence[float], increasing: bool = True, strict: bool = Tru
     if increasing:
         return all(b > a if strict else b >= a for a, b in pairs)
     return all(b < a if strict else b <= a for a, b in pairs)
+
+
+def consistent_within(value: float | None, lo: float, hi: float) -> str:
+    """For a printed number only an unstated parameter reaches: CONSISTENT when the parameter's value
+    that reproduces it (``value``; None: no value reproduces it) lies in the cited range [lo, hi], else
+    "no"."""
+    return CONSISTENT if value is not None and math.isfinite(value) and lo <= value <= hi else "no"
