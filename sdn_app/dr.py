@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from sdvisc.counter_gate import CounterGate
+from sdn_app.ak_streams import ACCEPTED, AkStreams
 
 MAX_BACKOFF_DOUBLINGS = 5
 READY_TIMEOUT_S = 0.1
@@ -48,7 +48,8 @@ class AckTrack:
 
     ak: int = 0
     seq: int = -1
-    gate: CounterGate = field(default_factory=lambda: CounterGate(AK_MAX_STEP))
+    streams: AkStreams = field(default_factory=lambda: AkStreams(AK_MAX_STEP))
+    verdict: str = ""  # what the stream guard said of the last AK (sdn_app.ak_streams)
     ctrl_rx: int = 0
     t_last_rx: float | None = None
     t_last_sent: float | None = None
@@ -76,7 +77,10 @@ class DrMonitor:
         self.tracks: dict[str, AckTrack] = {}
 
     def track(self, wt: str) -> AckTrack:
-        return self.tracks.setdefault(wt, AckTrack())
+        t = self.tracks.get(wt)
+        if t is None:
+            t = self.tracks[wt] = AckTrack(streams=AkStreams(AK_MAX_STEP, quiet_s=self.ak_timeout_s))
+        return t
 
     def start(self, wt: str, now: float, *, armed: bool = True, await_path: bool = False) -> None:
         """A turbine was (re)routed at ``now``: a loss before ``now`` no longer counts.
@@ -113,11 +117,12 @@ class DrMonitor:
     def on_ak(self, wt: str, seq: int, ak: int, ctrl_rx: int, ctrl_age_s: float, now: float,
               sent: float | None = None) -> bool:
         """Record one AK message received at ``now`` (sent at ``sent``, if known); False if it is
-        a duplicate, older than the last one, or an unconfirmed jump of the counter
-        (:class:`sdvisc.counter_gate.CounterGate`)."""
+        a duplicate, older than the last one, or not of the AK stream the app follows
+        (:class:`sdn_app.ak_streams.AkStreams`; the verdict is left in the track's ``verdict``)."""
         t = self.track(wt)
-        if not t.gate.accepts(t.gate.admit(seq)):
-            return False  # duplicate, older, or a jump no second AK has confirmed (forged/mutated)
+        t.verdict = t.streams.admit(seq, ctrl_rx, now)
+        if t.verdict not in ACCEPTED:
+            return False  # duplicate, older, or another stream (forged, or not yet confirmed)
         if sent is None or not now - PLAUSIBLE_CLOCK_S <= sent <= now:
             sent = now
         else:

@@ -258,8 +258,14 @@ class Controller:
             st.counters["ak_not_in_visc"] += 1
             return []
         sent = msg.header.time if msg.header is not None else None
-        if not st.dr.on_ak(name, msg["seq"], msg["ak"], msg["ctrl_rx"], msg["ctrl_age_ms"] / 1e3, now, sent=sent):
-            st.counters["ak_duplicate"] += 1
+        accepted = st.dr.on_ak(name, msg["seq"], msg["ak"], msg["ctrl_rx"], msg["ctrl_age_ms"] / 1e3, now, sent=sent)
+        track = st.dr.track(name)
+        conflict = track.streams.take_conflict()
+        if conflict is not None:  # two live AK streams for one turbine: one is forged (sdn_app.ak_streams)
+            st.counters["ak_conflict"] += 1
+            st.event(now, "ak_conflict", wt=name, **conflict)
+        if not accepted:
+            st.counters["ak_duplicate" if track.verdict == "stale" else "drop_ak_other_stream"] += 1
             return []
         st.counters["ak_rx"] += 1
         st.tables.set_comm(name, comm_on=bool(msg["ak"]))
