@@ -181,31 +181,67 @@ class TurbineParams:
 
 @dataclass
 class WppParams:
-    """The wind power plant's voltage controller at the PCC (plant/wpp.py): reactive droop voltage
-    control, one Q* for every grid-following farm turbine (p.u. on the turbine rating)."""
+    """The wind power plant's Q/V controller at the PCC (plant/wpp.py, after IEC 61400-27-1:2015
+    Annex D's WPP reactive power control): one order for every grid-following farm turbine (p.u. on
+    the turbine rating), limited per turbine by its Q limitation. Values marked [src: Dynawo test] are
+    those of Dynawo's IEC 61400-27-1:2015 WPP test case (Examples/Wind/IEC/Neplan/
+    WPP4ACurrentSource2015.mo), the public reference implementation of the standard's models."""
 
     enabled: bool = True
     """Plant-level voltage control in service [paper: the farm's turbines are the CIGRE C4.49
     benchmark's, whose plant controller regulates the PCC; IEC 61400-27-1 WPP control]."""
+    mode: str = "voltage"
+    """"voltage" (voltage control with reactive droop, IEC M_WPqmode 3 with K_WPqu = ``droop``) or
+    "reactive_power" (Q_WP to ``q_ref``, M_WPqmode 0) [assumed: a transmission-connected farm
+    regulates its PCC voltage; the paper's "before the deployment of SDViSC the PCC voltage is 0.97
+    p.u." is read in issue 39 as a farm that does not — run the other mode to see it]."""
     v_ref: float = 1.0
     """PCC voltage reference, p.u. [assumed: nominal]."""
+    q_ref: float = 0.0
+    """Q reference of the reactive power mode, p.u. on the turbine rating [assumed: unity power factor]."""
     droop: float = 0.04
-    """Reactive droop: V_pcc settles at v_ref - droop Q (Q of one turbine on its rating), p.u./p.u.
+    """Reactive droop K_WPqu: V_pcc settles at v_ref - droop Q (Q of one turbine on its rating), p.u./p.u.
     [assumed: grid codes ask for a slope of 2-7 % of the reactive range; ENTSO-E RfG Art. 21(3)(d)]."""
     k_i: float = 10.0
-    """Integral gain, p.u. Q / (p.u. V s) [assumed: about 1 s to 90 % of a voltage step at SCR 7.14,
-    within the 1-5 s ENTSO-E RfG asks (Art. 21(3)(d)(iv))]."""
+    """Integral gain K_IWPx, p.u. Q / (p.u. V s) [src: Dynawo test, Kiwpx = 10; also about 1 s to 90 %
+    of a voltage step at SCR 7.14, within the 1-5 s ENTSO-E RfG asks (Art. 21(3)(d)(iv))]."""
     k_p: float = 0.0
-    """Proportional gain, p.u. Q / p.u. V [assumed: 0, an integral controller as IEC 61400-27-1's
-    WPP voltage control with K_PWPx = 0]."""
+    """Proportional gain K_PWPx, p.u. Q / p.u. V [assumed: 0, an integral controller as before issue 39;
+    K_PWPx is project-dependent (the Dynawo test's 0.5 is for its reactive power mode)]."""
     q_max: float = 0.33
-    """Reactive limit of each turbine's Q* (both signs), p.u. [src: ENTSO-E RfG / typical grid codes:
-    Q/P_max = 0.33 at full power (power factor 0.95)]."""
-    period_s: float = 0.0
-    """Update period, s; 0 = at every scheduled slow-term hold of the plant (the steps 0, 10, 20, ...: 6.7
-    ms at the normal 0.67 ms step, 0.5 ms at the HD reference's 50 us, whatever commands come between),
-    so that the controller converges with the plant's step [assumed; IEC 61400-27-1 WPP control runs with a communication delay of 0.05-0.2 s,
-    not modelled]."""
+    """Reactive limit of the order (both signs; also X_KIWPxmax, the integrator's), p.u. [src: ENTSO-E RfG
+    / typical grid codes: Q/P_max = 0.33 at full power (power factor 0.95)]."""
+    period_s: float = 0.1
+    """Controller cycle T_s, s: the PI, lag and rate limit are evaluated at t0, t0 + T_s, ... whatever
+    the plant's step [assumed: a plant controller's cycle is 10-100 ms; 0.1 s, the slow end; IEC
+    61400-27-1 writes the WPP control in continuous time and gives none]. 0 = the controller before
+    issue 39 (a cycle at every slow-term hold of the plant: 6.7 ms at the 0.67 ms step)."""
+    t_ufilt_s: float = 0.01
+    """Voltage measurement filter T_WPufiltq, s [src: Dynawo test, tWPUFiltQ = 0.01]."""
+    t_qfilt_s: float = 0.01
+    """Reactive power measurement filter T_WPqfiltq, s [src: Dynawo test, tWPQFiltQ = 0.01]."""
+    t_xfv_s: float = 0.1
+    """Lag of the reference transfer function T_xfv (lead T_xft = 0), s [src: Dynawo test, txfv = 0.1,
+    txft = 0]."""
+    dq_max_per_s: float = 10.0
+    """Rate limit of the order dX_refmax (both signs), p.u./s [src: Dynawo test, DXRefMaxPu = 10]."""
+    comm_delay_s: float = 0.1
+    """Communication delay of the order to the turbines (transport delay), s [assumed: the middle of
+    the 0.05-0.2 s issue 39 names for plant-to-turbine communication; IEC 61400-27-1's communication
+    module is project-dependent]."""
+    u_dip: float = 0.8
+    """Voltage dip threshold u_WPqdip: below it (filtered V_pcc) the integrator and the output freeze,
+    p.u. [src: Dynawo test, UwpqDipPu = 0.8]."""
+    u_release: float = 0.9
+    """The freeze ends when the filtered V_pcc is back at or above this (the FRT flag's hysteresis),
+    p.u. [src: the end of the turbines' FRT state, ``TurbineParams.frt_v_dip`` = IEC u_qdip = 0.9]."""
+    u_qlim_knee: float = 1.05
+    """Turbine Q limitation (the standard's QLimitation, Q_max as a function of the terminal voltage):
+    the capacitive limit is q_max up to this terminal voltage, p.u. [assumed: the upper end of the
+    0.95-1.05 band in which a converter gives its full reactive range]."""
+    u_qlim_zero: float = 1.1
+    """... falling linearly to 0 at this terminal voltage and above, p.u. [assumed: the 1.1 p.u.
+    continuous-operation limit of the turbine's terminals (IEC 61400-21 / grid codes' 0.9-1.1)]."""
 
 
 @dataclass

@@ -53,7 +53,8 @@ class Plant(Commands, RightHandSide):
         if self.net.dynamic and (self.substeps != 1 or method == "rk4"):
             raise ValueError("the dynamic-phasor network advances once per plant step: substeps 1, etd2 or rk2")
         jit = jit and not self.net.dynamic  # the compiled kernels solve the quasi-static network only
-        self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind, self.params.battery)
+        self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind, self.params.battery,
+                                rating_mva=self.net.rating_mva)
         self.tb.ext_active_damping = self.net.dynamic
         self.sc = Condenser(self.params.condenser)
         self.layout = StateLayout(n)
@@ -136,7 +137,7 @@ class Plant(Commands, RightHandSide):
                 break  # at its limit
             q_last = q
         self.tb.q_wpp[:] = q * self._wpp_mask
-        self.wpp.settle_at(q, self.t)
+        self.wpp.settle_at(q, self.t, abs(self._load_flow()[2][self.net.pcc]))
 
     def _init_steady_state(self) -> None:
         net, g = self.net, self.params.grid
@@ -181,7 +182,9 @@ class Plant(Commands, RightHandSide):
         if not self._slow_keep or scheduled:
             if scheduled and self.wpp is not None:  # the plant's voltage controller: a sampled controller on
                 # the steps k = 0, slow_every, 2 slow_every, ... whatever commands come between
-                self.tb.q_wpp[:] = self.wpp.update(self.t, abs(self._v_pcc_last)) * self._wpp_mask
+                # (its own cycle inside; the turbines' Q limitation at their measured terminal voltages)
+                v_wt = self.layout.turbines(self.X)[T.VM].real[self._wpp_mask]
+                self.tb.q_wpp[self._wpp_mask] = self.wpp.update(self.t, abs(self._v_pcc_last), v_wt)
             self._hold_slow(after_command=not self._slow_keep)
             self._slow_next = (self.k // self.slow_every + 1) * self.slow_every
         self._slow_keep = False

@@ -8,7 +8,7 @@ from plant import turbine_laws as laws
 from plant.cases import COMPARISON_UNIT, comparison_visc_plant, sc_plant
 from plant.params import PlantParams, WppParams
 from plant.sim import Plant
-from plant.wpp import WppController
+from plant.wpp import WppController, legacy_params
 from sdvisc.vocabulary import OMEGA0
 
 
@@ -31,15 +31,15 @@ def test_frt_reactive_current_and_priority_closed_form():
         assert (i_d, i_q) == (d0 * scale, q0 * scale)
 
 
-def test_wpp_controller_integrates_and_limits():
-    """Sampled integral control: x grows by k_i e h per period; the order stops at q_max."""
-    wp = WppParams(k_i=10.0, droop=0.0, q_max=0.33, period_s=0.01)
+def test_legacy_wpp_controller_integrates_at_every_call_and_limits():
+    """The controller before issue 39 (legacy_params): x grows by k_i e h at every call, the order
+    stops at q_max."""
+    wp = legacy_params(WppParams(k_i=10.0, droop=0.0, q_max=0.33))
     c = WppController(wp)
     c.update(0.0, 0.99)
     for k in range(1, 4):
         q = c.update(0.01 * k, 0.99)  # e = 0.01 held
         assert q == pytest.approx(10.0 * 0.01 * 0.01 * k, rel=1e-12)
-    assert c.update(0.035, 0.99) == q, "no update before a period has passed"
     for k in range(4, 1000):
         q = c.update(0.01 * k, 0.9)
     assert q == wp.q_max and c.x == pytest.approx(wp.q_max, abs=0.02), "clipped, integrator stopped"
@@ -57,19 +57,26 @@ def test_farm_starts_in_the_plant_controllers_steady_state():
 
 
 def test_wpp_raises_the_pcc_after_a_grid_voltage_drop():
-    """Grid EMF -0.05: with the controller the PCC returns to within droop x Q of its reference;
-    without it, it stays down by about the drop."""
+    """Grid EMF -0.05: with the controller (its turbine Q limitation off) the PCC returns to within
+    droop x Q of its reference; without the controller it stays down by about the drop; with the Q
+    limitation the turbines stop short of it, their terminals on the limitation's line below 1.1."""
     out = {}
-    for enabled in (True, False):
+    for case in ("no Q limitation", "off", "default"):
         pp = PlantParams()
-        pp.wpp.enabled = enabled
+        pp.wpp.enabled = case != "off"
+        if case == "no Q limitation":
+            pp.wpp.u_qlim_knee = pp.wpp.u_qlim_zero = float("inf")
         p = Plant(pp)
         e0 = p.params.grid.e_grid
         r = p.run_offline(4.0, events=[(0.5, lambda q, e0=e0: q.set_grid_emf(e0 - 0.05))], record_every=20)
-        out[enabled] = (r["v_pcc"][0], r["v_pcc"][-1], r["q_wt"][-1, 0])
-    (v0, v1, q1), (u0, u1, _) = out[True], out[False]
+        out[case] = (r["v_pcc"][0], r["v_pcc"][-1], r["q_wt"][-1, 0], float(np.max(r["v_wt"][-1])))
+    (v0, v1, q1, _), (u0, u1, _, _) = out["no Q limitation"], out["off"]
     assert v1 == pytest.approx(1.0 - 0.04 * q1, abs=2e-3), "back on the droop line"
     assert u0 - u1 > 0.04 and v0 - v1 < 0.5 * (u0 - u1)
+    _, w1, q_lim, v_wt = out["default"]
+    wp = PlantParams().wpp
+    assert u1 < w1 < v1 and v_wt < wp.u_qlim_zero
+    assert q_lim == pytest.approx(wp.q_max * (wp.u_qlim_zero - v_wt) / (wp.u_qlim_zero - wp.u_qlim_knee), abs=0.01)
 
 
 def test_onshore_unit_sits_behind_its_transformers_at_the_pcc():
