@@ -134,7 +134,8 @@ def spoof_ak(cfg: dict) -> dict:
     """Mode ``spoof_ak``: send ``count`` AK messages for turbine ``victim_wid`` (``ak`` 0 or 1) to
     the SDN app from this host, with the given Ethernet/IP source (this host's own, or the
     victim's), as raw frames on ``iface`` (scapy builds them). The AK counter continues from
-    ``seq0`` (a forger that guessed the victim's counter well)."""
+    ``seq0`` (a forger that guessed the victim's counter well); ``ctrl_rx`` is the counter's value
+    unless ``ctrl_rx`` is given."""
     from scapy.layers.inet import IP, UDP
     from scapy.layers.l2 import Ether
 
@@ -146,7 +147,7 @@ def spoof_ak(cfg: dict) -> dict:
         sec, nsec = divmod(time.time_ns(), 1_000_000_000)
         seq = int(cfg.get("seq0", 1)) + k
         payload = wire.encode(wire.MsgType.AK, {"wt": int(cfg["victim_wid"]), "seq": seq, "ak": int(cfg["ak"]),
-                                                "ctrl_rx": seq, "ctrl_age_ms": 0.5 if cfg["ak"] else 80.0},
+                                                "ctrl_rx": seq if cfg.get("ctrl_rx") is None else int(cfg["ctrl_rx"]), "ctrl_age_ms": 0.5 if cfg["ak"] else 80.0},
                               header=wire.Header(seq, sec & wire.UINT32_MAX, nsec))
         frame = (Ether(src=cfg["src_mac"], dst=cfg["dst_mac"]) / IP(src=cfg["src_ip"], dst=cfg["dst_ip"])
                  / UDP(sport=wire.PORT_TURBINE, dport=wire.PORT_CONTROLLER) / payload)

@@ -117,7 +117,8 @@ class Timeline:
             who = victim if event.impersonate else me
             cfg.update(mode="spoof_ak", victim_wid=wire.turbine_id(victim["cluster"], victim["number"]), ak=event.ak,
                        src_ip=who["ip"], src_mac=who["mac"], dst_ip=CONTROLLER_VIP, dst_mac=CONTROLLER_VMAC,
-                       iface=run.net.get(event.host).defaultIntf().name, seq0=100_000)
+                       iface=run.net.get(event.host).defaultIntf().name, seq0=event.seq0,
+                       ctrl_rx=event.ctrl_rx)
         else:
             def port(target: str) -> int:
                 if hosts[target]["role"] == "turbine":

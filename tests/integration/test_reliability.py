@@ -100,6 +100,43 @@ def test_forged_aks_from_another_host(tmp_path, topology):
     assert_no_leftovers()
 
 
+def test_a_forged_ak_stream_behind_the_l2_switch_changes_nothing_and_a_real_failure_is_still_dr(tmp_path):
+    """Issue 42 item 1, with real spoofed frames: wt1_2 sends AK = 0 for wt1_1 with wt1_1's own IP
+    and MAC through the paper topology's non-OpenFlow L2 switch (seq 10**6 + n, ctrl_rx 0, every
+    2 ms). The app follows wt1_1's genuine AK stream: no DR, no control interruption, the conflict
+    reported. A second forgery runs while s1-s3 really fails: that failure is still DR'd."""
+    sc = {"name": "forged_ak_stream", "topology": {"name": "paper", "clusters": 1, "turbines": 2}, "duration_s": 5.0,
+          "plant": {"model": "minimal"}, "sdc": {"backup": False},
+          "sdn": {"dr_hold_s": 0.040, "dynamic_routing": True, "reroute_on_port_status": False},
+          "timeline": [{"t": 0.5, "do": "visc_on", "wt": "wt1_1"},
+                       {"t": 1.5, "do": "spoof_ak", "host": "wt1_2", "victim": "wt1_1", "impersonate": True,
+                        "count": 200, "duration_s": 0.4, "seq0": 1_000_000, "ctrl_rx": 0},
+                       {"t": 3.0, "do": "spoof_ak", "host": "wt1_2", "victim": "wt1_1", "impersonate": True,
+                        "count": 500, "duration_s": 1.0, "seq0": 2_000_000, "ctrl_rx": 0},
+                       {"t": 3.3, "do": "link_down", "a": "s1", "b": "s3"}]}
+    path = tmp_path / "forged.yaml"
+    path.write_text(yaml.safe_dump(sc))
+    s = run_scenario(path, tmp_path / "out", "--time-scale", "4")
+    assert sum(r["total"] for r in s["fuzz"].values()) == 700, s["fuzz"]
+    conflicts = [e for e in s["events"] if e["type"] == "ak_conflict"]
+    assert conflicts and all(e["wt"] == "wt1_1" for e in conflicts)
+    assert any(1.5 <= e["t"] < 2.0 for e in conflicts) and any(3.0 <= e["t"] < 4.0 for e in conflicts)
+    assert s["sdn_counters"].get("ak_conflict", 0) == len(conflicts)
+    assert s["sdn_counters"].get("drop_ak_other_stream", 0) >= 500  # (a few forged frames may be lost)
+    dr = [e for e in s["events"] if e["type"] == "dr" and not e.get("after_end")]
+    assert [e for e in dr if e["t"] < 3.3] == [], "a forged AK caused a DR"
+    # no control interruption while only the forgery ran (gaps in simulated time, k = 4)
+    gaps = [(a, b) for a, b in s["turbines"]["wt1_1"]["ctrl_gaps"] if 1.5 <= a < 3.3 and b - a >= 0.040]
+    assert gaps == [], gaps
+    # the real failure during the second forgery: one DR, dated after the failure, onto a path without s1-s3
+    (rec,) = [r for r in s["recoveries"] if r["fault"].get("a") == "s1"]
+    assert rec["wt"] == "wt1_1" and rec["cause"] == "dr" and rec["recovery_ms"] is not None
+    assert len(dr) == 1 and dr[0]["t_loss"] >= 3.3 - 0.001
+    assert ["s1", "s3"] not in [sorted(p) for p in zip(dr[0]["new_path"], dr[0]["new_path"][1:])]
+    assert s["turbines"]["wt1_1"]["last_ctrl_rx_t"] > 4.9, "control after the reroute"
+    assert_no_leftovers()
+
+
 def test_a_crashed_sdc_is_restarted_and_serves_again(tmp_path):
     sc = yaml.safe_load((SC / "smoke.yaml").read_text())
     sc.update(name="crash_sdc", duration_s=8.0, timeline=[{"t": 0.5, "do": "visc_on", "wt": "wt1_1"},
