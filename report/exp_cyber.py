@@ -10,11 +10,12 @@ from plant.cosim_service import compare_window, run_service_hd
 from plant.run_record import read_run
 from plant.turbine import REMOTE
 from report import figures, net_arrangement, network_runs
+from report.exp_grid_net import terminal_voltage
 from report.exp_sdc import RMS_PARTLY, RMS_YES
 from report.exp_weak import CRITERIA, CRITERION, f9_run, f9_search, f9_settings
 from report.registry import CONSISTENCY, INPUT, Context, Experiment, Finding, PaperClaim
 from report.stability import of_run
-from report.verdicts import close_to, holds
+from report.verdicts import REL_PARTLY, REL_YES, close_to, holds
 
 F1_TURBINES = ["wt1_1", "wt2_1", "wt3_1", "wt4_1"]
 
@@ -37,7 +38,7 @@ F9NET_CLAIMS = (
 C1_CLAIMS = (
     PaperClaim("C1.a", "When SDViSCs are plugged in (cluster 1 at 1.2 s, cluster 4 at 4.8 s) the SDC immediately "
                "starts operating them: the SDN controller builds the link in a timely manner", "immediately"),
-    PaperClaim("C1.b", "Currents and voltages of the SDViSCs stabilise within about 0.1 s after the plug", "≈ 0.1 s"),
+    PaperClaim("C1.b", "Currents and voltages of the SDViSCs stabilise within about 0.1 s after the plug", "≤ ≈ 0.1 s"),
     PaperClaim("C1.c", "Communication is only required while a turbine operates as SDViSC", "no packets before"),
 )
 C2_CLAIMS = (
@@ -184,13 +185,17 @@ def _c1(ctx: Context) -> dict[str, Finding]:
     lag = {wt: tur[wt]["first_ctrl_rx_t"] - t for wt, t in requests.items()}
     before = {wt: tur[wt]["first_meas_tx_t"] >= t for wt, t in requests.items()}
     ends = {"wt1_1": requests["wt4_1"], "wt4_1": float(ts["t"][-1])}
-    settle = {wt: max(network_runs.settle_time(ts["t"], ts[f"{wt}.i"], requests[wt], ends[wt], 0.02),
-                      network_runs.settle_time(ts["t"], ts[f"{wt}.q"], requests[wt], ends[wt], 0.02))
-              for wt in requests}
+    # what the sentence names: each SDViSC's current |i| and its terminal voltage (|S|/|I| from the
+    # recorded p, q, i: the network run records no terminal voltage); Q beside
+    series = {wt: {"i": ts[f"{wt}.i"], "v": terminal_voltage(ts, [wt]), "q": ts[f"{wt}.q"]} for wt in requests}
+    settle_by = {wt: {k: network_runs.settle_time(ts["t"], y, requests[wt], ends[wt], 0.02) for k, y in ys.items()}
+                 for wt, ys in series.items()}
+    settle = {wt: max(d["i"], d["v"]) for wt, d in settle_by.items()}
     _grid_and_packets(ctx, {"run": ts}, list(requests), "c1_plug_and_play",
                       "SDViSCs plugged at 1.2 s and 4.8 s stabilise within about 0.1 s; packets flow only after "
                       "the request.", {f"visc_on {wt}": t for wt, t in requests.items()})
     worst_lag, worst_settle = max(lag.values()), max(settle.values())
+    c1b = "yes" if worst_settle <= 0.1 * (1 + REL_YES) else "partly" if worst_settle <= 0.1 * (1 + REL_PARTLY) else "no"
     p_move = {wt: (float(ts[f"{wt}.p"][ts["t"] <= t][-1]), float(ts[f"{wt}.p"][ts["t"] <= ends[wt]][-1]))
               for wt, t in requests.items()}
     return {
@@ -198,13 +203,20 @@ def _c1(ctx: Context) -> dict[str, Finding]:
                         "yes" if worst_lag <= 0.02 else "partly" if worst_lag <= 0.2 else "no",
                         "timely = first CTRL within 20 ms of the OWFCC's request (simulated time); ≤ 200 ms partly",
                         {"first_ctrl_after_s": lag}),
-        "C1.b": Finding(", ".join(f"{wt}: {v:.3f} s" for wt, v in settle.items()),
-                        "yes" if worst_settle <= 0.15 else "partly" if worst_settle <= 0.5 else "no",
-                        "settled = |i| and Q within 0.02 p.u. of their final mean (last 0.3 s before the next plug or the "
-                        "end); ≤ 0.15 s yes, ≤ 0.5 s partly; P at the request → at the end: "
-                        + ", ".join(f"{wt} {a:.2f} → {b:.2f} p.u." for wt, (a, b) in p_move.items())
+        "C1.b": Finding(", ".join(f"{wt}: |i| {d['i']:.3f} s, terminal |V| {d['v']:.3f} s (Q {d['q']:.3f} s)"
+                                  for wt, d in settle_by.items()), c1b,
+                        "what the sentence names, each SDViSC's current and voltage: settled = within 0.02 p.u. of "
+                        "its final mean (last 0.3 s before the next plug or the end), the later of the two; \"within "
+                        "around 0.1 s\" judged as an upper bound by the 10 % rule (≤ 0.11 s yes, ≤ 0.135 s partly); "
+                        "terminal |V| = |S|/|I| from the recorded p, q, i; Q beside, not judged. P at the request → at "
+                        "the end: " + ", ".join(f"{wt} {a:.2f} → {b:.2f} p.u." for wt, (a, b) in p_move.items())
                         + " (the SDViSC law's T_m = 0 takes a producing turbine to P = 0 through its swing equation)",
-                        {"settle_s": settle, "p_request_end": p_move}),
+                        {"settle_s": settle, "settle_by_quantity_s": settle_by, "p_request_end": p_move,
+                         "printed": {"reading": "each plugged SDViSC's current |i| and terminal |V| (RMS), time to "
+                                                "stay within 0.02 p.u. of the final value, the later one",
+                                     "value": f"{worst_settle:.3f} s",
+                                     "alternatives": {f"{wt} {k}": f"{v:.3f} s" for wt, d in settle_by.items()
+                                                      for k, v in d.items()}}}),
         "C1.c": Finding(", ".join(f"{wt}: first MEAS at {tur[wt]['first_meas_tx_t']:.3f} s (request {t:.1f} s)"
                                   for wt, t in requests.items()), holds(all(before.values())),
                         "no turbine sends a measurement before its request", {"first_meas_tx_t": before}),

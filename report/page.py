@@ -80,6 +80,23 @@ KINDS_TEXT = ("<p class='small'>Kind: <i>reproduction</i> = compared with a numb
               "current limit).</p>")
 
 
+def _printed(data: dict) -> str:
+    """The paper's printed magnitudes, each once (report/printed.py), with the headline."""
+    entries = data.get("printed_magnitudes") or []
+    if not entries:
+        return ""
+    head = ("<tr><th>magnitude</th><th>the paper</th><th>reading</th><th>this testbed</th><th>verdict</th>"
+            "<th>alternatives</th></tr>")
+    body = "".join(
+        f"<tr><td>{escape(e['magnitude'])} ({escape(e['claim'])})</td><td><i>{escape(e['quote'])}</i></td>"
+        f"<td>{escape(e['reading'])}</td><td>{escape(str(e['value']))}</td>{_verdict_cell(e['verdict'])}"
+        f"<td class='small'>{escape('; '.join(f'{k}: {v}' for k, v in e['alternatives'].items()))}</td></tr>"
+        for e in entries)
+    return (f"<p><b>{escape(data['headline']['text'])}</b> ({data['headline']['evaluated']} evaluated in this run; "
+            "consistent = reached only through a parameter the paper does not state, inside a cited range: not "
+            f"counted as reproduced).</p><table>{head}{body}</table>")
+
+
 def _counts(data: dict) -> str:
     """The headline (reproductions only) and what is counted apart."""
     head = ", ".join(f"{n} {v}" for v, n in data["summary"].items() if n and v != MEASURED) or "none evaluated"
@@ -169,7 +186,8 @@ def render(data: dict, out_dir: Path) -> str:
         f"<p>Command: <code>{escape(data['command'])}</code>. Claims: {_counts(data)}. The paper's values are typed "
         "from the paper; every value in the column <i>this testbed</i> and every verdict is computed by the "
         "experiment (tolerances in report/verdicts.py: a number within 10 % of the paper's is reproduced, within "
-        "35 % partly).</p>",
+        "35 % partly; consistent: only an unstated parameter inside a cited range reaches it).</p>",
+        "<h2>The paper's printed magnitudes</h2>", _printed(data),
         "<h2>Machine and time scale</h2>", _machine(data),
         "<h2>Experiments</h2>", _experiments_table(data["experiments"]), _offline_phase_text(data.get("offline_phase")),
         "<h2>Claims</h2>", _claims([r for r in data["claims"] if not r.get("beyond")]),

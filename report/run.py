@@ -12,7 +12,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from report import machine, offline_pool, page
+from report import machine, offline_pool, page, printed
 from report.registry import (
     CLAIM_KINDS,
     LOCK_WAIT_KEY,
@@ -185,7 +185,9 @@ def _data(by_index: dict[int, Outcome], experiments: list[Experiment], quick: bo
         "offline_phase": offline_phase or None,
         "lock_wait_s": round(sum(sum(o.numbers.get(LOCK_WAIT_KEY, {}).values()) for o in outcomes), 1),
         "machine": {"before": machine_before, "after": machine.describe()},
-        "summary": summarise(rows),  # the headline: reproductions only
+        "headline": printed.headline(magnitudes := printed.table(rows)),  # each printed magnitude once
+        "printed_magnitudes": magnitudes,
+        "summary": summarise(rows),  # reproductions only
         "summary_apart": apart(rows),  # consistency and input claims, counted apart
         "experiments": [{
             "id": o.experiment.id, "title": o.experiment.title, "paper_figure": o.experiment.paper_figure,
