@@ -13,6 +13,14 @@ Shepherd model of Tremblay & Dessaint (2009), with the charge removed it = (1 - 
     A = V_full - V_exp,  B = 3 / Q_exp,  K = (V_full - V_nom + A (exp(-B Q_nom) - 1)) (Q_c - Q_nom) / Q_nom,
     E0 = V_full + K + R_c i_fit - A                          (the model's fit to three datasheet points)
 
+Aggregated units: a converter of n turbines' rating (the 40 MVA onshore unit, n = 4) carries n packs,
+the aggregation rule of ``PlantParams.onshore_unit_mva`` (n identical units in parallel are one unit of
+n times the rating with the same p.u. values): the p.u. constants below are every converter's, and its
+energy in MWh is counted on its own rating (``energy_mwh``; on the turbine's 10 MVA it was 4x too small
+for the onshore unit). [assumed: the paper's "a 2000 Ah Li-ion battery" for the aggregated SDViSC
+read per turbine converter; one 2000 Ah pack for the whole 40 MVA unit would be 1/4 of these p.u.
+capacity and current limits.]
+
 Pack: n_p = capacity / Q_c cells in parallel, n_s in series with n_s E_cell(SOC_init) = v_dc_ref
 V_dc,base (the battery floats on the DC link at the initial SOC: no current at rest)::
 
@@ -48,7 +56,7 @@ from plant.params import BatteryParams, TurbineParams
 class BatteryBank:
     """The N turbines' batteries: derived pack constants, SOC and delivered energy per turbine."""
 
-    def __init__(self, bp: BatteryParams, tp: TurbineParams, n: int):
+    def __init__(self, bp: BatteryParams, tp: TurbineParams, n: int, rating_mva=None):
         self.p = bp
         v_base = tp.v_dc_base_kv * 1e3  # V
         i_base = tp.s_rated_mva * 1e6 / v_base  # A
@@ -64,7 +72,10 @@ class BatteryBank:
         self.i_dis_max = bp.c_rate_discharge * bp.capacity_ah / i_base  # p.u.
         self.i_chg_max = bp.c_rate_charge * bp.capacity_ah / i_base
         self.ocv_scale = self.n_series / v_base
-        self.s_rated_mva = tp.s_rated_mva
+        self.s_turbine_mva = float(tp.s_rated_mva)
+        # each converter's own rating (the onshore unit: 40 MVA): its p.u. energy is on that base
+        self.s_rated_mva = np.broadcast_to(np.asarray(tp.s_rated_mva if rating_mva is None else rating_mva,
+                                                      dtype=float), (n,)).copy()
         self.soc = np.full(n, float(bp.soc_init))
         self.energy = np.zeros(n)  # delivered to the DC link since the start, p.u. x s (turbine rating)
 
@@ -98,4 +109,11 @@ class BatteryBank:
         return self.soc - i * (h / self.q), self.energy + vdc * i * h
 
     def energy_mwh(self):
+        """Delivered energy per converter, MWh: p.u. x s on the converter's own rating."""
         return self.energy * (self.s_rated_mva / 3600.0)
+
+    def capacity_ah(self):
+        """Pack capacity per converter, Ah: ``capacity_ah`` per turbine converter, a unit of n turbines'
+        rating aggregated with n packs (the aggregation rule of ``PlantParams.onshore_unit_mva``: the same
+        p.u. values on n times the rating), so the p.u. constants above hold for every converter."""
+        return self.p.capacity_ah * self.s_rated_mva / self.s_turbine_mva

@@ -89,13 +89,14 @@ CP_OPT = float(np.max(_CPS))
 class TurbineBank:
     """Parameters, modes and the right-hand side of N turbines."""
 
-    def __init__(self, params: TurbineParams, n: int, v_wind: float, battery: BatteryParams | None = None):
+    def __init__(self, params: TurbineParams, n: int, v_wind: float, battery: BatteryParams | None = None,
+                 rating_mva=None):
         self.p = params
         self.n = n
         self.v_wind = np.full(n, float(v_wind))
         self.mode = np.zeros(n, dtype=int)
         self.battery = np.zeros(n, dtype=bool)  # battery connected (set_battery)
-        self.batt = BatteryBank(battery or BatteryParams(), params, n)
+        self.batt = BatteryBank(battery or BatteryParams(), params, n, rating_mva)  # rating: each converter's own
         self.q_cmd = np.zeros(n)  # local Q* (set_power_ref)
         self.q_wpp = np.zeros(n)  # Q* added by the plant-level voltage controller (plant/wpp.py)
         self.p_cmd = np.zeros(n)

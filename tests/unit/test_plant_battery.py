@@ -135,3 +135,17 @@ def test_f5_battery_reduces_the_dip_within_its_limits():
         assert np.all(e_pu_s >= 0.99 * vdc.min() * charge) and np.all(e_pu_s <= 1.01 * vdc.max() * charge)
     others = np.setdiff1d(np.arange(p0.n), VISC)
     assert np.all(r45["p_batt"][:, others] == 0.0) and np.all(r0["p_batt"] == 0.0) and np.all(r0["soc"] == 0.5)
+
+
+def test_the_onshore_units_battery_is_counted_on_its_own_rating():
+    """Issue 39 item 10: the 40 MVA onshore unit (four turbine converters aggregated) carries four packs
+    (the same p.u. constants on four times the base); its energy in MWh is on 40 MVA, not the turbine's
+    10 (was 4x too small). 1 p.u. x 3600 s is 10 MWh on a turbine, 40 MWh on the unit (rel 1e-12)."""
+    b = BatteryBank(BatteryParams(), TurbineParams(), 2, rating_mva=np.array([10.0, 40.0]))
+    b.energy[:] = 3600.0
+    np.testing.assert_allclose(b.energy_mwh(), [10.0, 40.0], rtol=1e-12)
+    np.testing.assert_allclose(b.capacity_ah(), [2000.0, 8000.0], rtol=1e-12)
+    pp = PlantParams()
+    pp.onshore_units = 1
+    p = Plant(pp)
+    assert p.tb.batt.s_rated_mva[50] == 40.0 and p.tb.batt.s_rated_mva[:50].tolist() == [10.0] * 50
