@@ -32,15 +32,28 @@ def _cmd_check(args) -> int:
 
 
 def _time_scale(text: str) -> float | str:
+    """A number or ``auto``; its range is the scenario schema's (checked with the file, scenarios.loader)."""
     if text == "auto":
         return text
     try:
-        value = float(text)
+        return float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"the time scale is a number or 'auto', not {text!r}") from None
-    if not 1.0 <= value <= 1000.0:
-        raise argparse.ArgumentTypeError("the time scale is 1 (real time) to 1000 wall seconds per simulated second")
-    return value
+
+
+def _overrides(args) -> list:
+    """The options that replace a key of the scenario: validated with it (scenarios.loader.Override)."""
+    from scenarios.loader import Override
+
+    given = [("--time-scale", ("time_scale",), args.time_scale, args.time_scale),
+             ("--duration", ("duration_s",), args.duration, None if args.duration == float("inf") else args.duration),
+             ("--switch-ports", ("switch_ports",), args.switch_ports, args.switch_ports),
+             ("--switch-links", ("switch_links",), args.switch_links, args.switch_links),
+             ("--cpu-split", ("cpu_split",), args.cpu_split, args.cpu_split == "on"),
+             ("--pcap", ("capture", "pcap"), True if args.pcap else None, True)]
+    return [Override(option, "" if option == "--pcap" else f"{typed:g}" if isinstance(typed, float) else str(typed),
+                     key, value)
+            for option, key, typed, value in given if typed is not None]
 
 
 def _cmd_run(args) -> int:
@@ -49,21 +62,11 @@ def _cmd_run(args) -> int:
 
     path = args.scenario or DEFAULT_SCENARIO
     try:
-        scenario = load_scenario(path)
+        scenario = load_scenario(path, _overrides(args))  # the options through the file's schema, before anything is built
     except ScenarioError as exc:
         print(exc, file=sys.stderr)
         return 1
     out = Path(args.out or Path("results") / scenario.name)
-    if args.pcap:
-        scenario.capture.pcap = True
-    if args.time_scale is not None:
-        scenario.time_scale = args.time_scale
-    if args.switch_ports is not None:
-        scenario.switch_ports = args.switch_ports
-    if args.switch_links is not None:
-        scenario.switch_links = args.switch_links
-    if args.cpu_split is not None:
-        scenario.cpu_split = args.cpu_split == "on"
     problem = _session_options(args, scenario)
     if args.calibrate_from is not None:
         from scenarios.calibrate import CANDIDATES
@@ -93,17 +96,21 @@ def _cmd_run(args) -> int:
 
 
 def _session_options(args, scenario) -> str | None:
-    """Apply --duration; the problem with --duration, --cli-duration or --web, if any."""
-    if args.duration is not None:
-        scenario.duration_s = None if args.duration == float("inf") else args.duration
-        late = [e.t for e in scenario.timeline if scenario.duration_s is not None and e.t > scenario.duration_s]
-        if late:
-            return f"--duration {args.duration:g}: the timeline has actions at t = {', '.join(f'{t:g}' for t in late)} s"
+    """The problem with an open-ended run, --cli-duration or --web, if any (--duration itself went
+    through the scenario's checks)."""
     if scenario.duration_s is None and not args.cli:
         return "an open-ended run (duration_s: null or --duration inf) needs --cli: `exit` or --cli-duration ends it"
     if (args.cli_duration is not None or args.web is not None) and not args.cli:
         return "--cli-duration and --web are options of an interactive session (--cli)"
     return None
+
+
+def _number(text: str) -> float:
+    """A number (or inf); its range is the scenario schema's."""
+    try:
+        return float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"a number of seconds (or inf), not {text!r}") from None
 
 
 def _seconds(text: str) -> float:
@@ -185,7 +192,7 @@ def main(argv: list[str] | None = None) -> int:
                    "the farm stays live after the timeline until you type exit (feedback on every action)")
     p.add_argument("--cli-duration", type=_seconds, default=None, metavar="S",
                    help="with --cli: end the session at t = S (simulated seconds), or at exit if earlier")
-    p.add_argument("--duration", type=_seconds, default=None, metavar="S|inf",
+    p.add_argument("--duration", type=_number, default=None, metavar="S|inf",
                    help="override the scenario's duration_s (inf: open-ended, only with --cli)")
     p.add_argument("--web", type=int, nargs="?", const=8765, default=None, metavar="PORT",
                    help="with --cli: live view in a browser at http://127.0.0.1:PORT/ (default 8765; this machine only)")

@@ -46,8 +46,34 @@ def _message(err: dict) -> str:
     return err["msg"]
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Parse and validate ``path``; raise :class:`ScenarioError` naming every problem of the file."""
+@dataclass(frozen=True)
+class Override:
+    """A command-line option that replaces one key of the scenario (``--time-scale auto`` sets
+    ``time_scale``): it goes through the same schema and cross-section checks as the file's key,
+    and a problem with it names the option rather than a line of the file."""
+
+    option: str
+    text: str  # as the user typed it
+    key: tuple
+    value: object
+
+    def apply(self, data: dict) -> None:
+        node = data
+        for part in self.key[:-1]:
+            node = node.setdefault(part, {})
+            if not isinstance(node, dict):
+                return  # the file's own value is no mapping: the file's error says so
+        node[self.key[-1]] = self.value
+
+    def concerns(self, loc: tuple, msg: str) -> bool:
+        """A problem at ``loc`` is this option's: at its key, or a check across keys that names it."""
+        return loc[:len(self.key)] == self.key or (not loc and ".".join(map(str, self.key)) in msg)
+
+
+def load_scenario(path: str | Path, overrides: list[Override] | tuple = ()) -> Scenario:
+    """Parse and validate ``path`` with the command line's ``overrides`` put in place of the keys
+    they replace; raise :class:`ScenarioError` naming every problem: file, line and key for the
+    file's, the option for an override's."""
     path = Path(path)
     try:
         text = path.read_text()
@@ -56,6 +82,8 @@ def load_scenario(path: str | Path) -> Scenario:
     root, data = parse_yaml(text, path, ScenarioError)
     if not isinstance(data, dict):
         raise ScenarioError(f"{path}:1: expected a mapping of scenario keys at the top level")
+    for override in overrides:
+        override.apply(data)
     problems: list[tuple[tuple, str]] = []
     try:
         scenario = Scenario.model_validate(data)
@@ -65,10 +93,25 @@ def load_scenario(path: str | Path) -> Scenario:
     parts = _Parts.of_scenario(scenario) if scenario is not None else _Parts.of_partial(data, {loc for loc, _ in problems})
     problems += parts.problems()
     if problems:
-        lines = [(line_of(root, loc), ".".join(str(p) for p in loc) or "(top level)", msg) for loc, msg in problems]
-        lines.sort(key=lambda item: item[0] or 0)
-        raise ScenarioError("\n".join(f"{path}:{line}: {key}: {msg}" for line, key, msg in lines))
+        raise ScenarioError("\n".join(_report(path, root, problems, overrides)))
     return scenario
+
+
+def _report(path: Path, root, problems: list[tuple[tuple, str]], overrides) -> list[str]:
+    """One line per problem: ``file:line: key: message``, or ``--option value: key: message`` for a
+    problem with an override (the options' lines first)."""
+    options, lines = [], []
+    for loc, msg in problems:
+        key = ".".join(str(p) for p in loc) or "(top level)"
+        by = next((o for o in overrides if o.concerns(loc, msg)), None)
+        if by is not None:
+            options.append(f"{by.option} {by.text}: {'.'.join(map(str, by.key))}: {msg}")
+        else:
+            durations = [o for o in overrides if o.key == ("duration_s",)]
+            note = f" (duration_s from {durations[0].option} {durations[0].text})" if durations and "duration_s" in msg else ""
+            lines.append((line_of(root, loc), f"{path}:{line_of(root, loc)}: {key}: {msg}{note}"))
+    lines.sort(key=lambda item: item[0] or 0)
+    return options + [text for _, text in lines]
 
 
 @dataclass

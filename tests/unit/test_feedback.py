@@ -294,22 +294,33 @@ def test_live_view_updates_carry_new_events_and_lines_once_and_the_history_on_co
 
 
 def test_session_options_of_sdvisc_run():
+    """--duration goes through the scenario's checks (tests/unit/test_cli_overrides.py); what is
+    left to _session_options: an open-ended run needs --cli, --web and --cli-duration only with it."""
     from argparse import Namespace
 
-    from scenarios.cli import _session_options
-    from scenarios.loader import load_scenario
+    from scenarios.cli import _overrides, _session_options
+    from scenarios.loader import ScenarioError, load_scenario
 
     def opts(**kw):
-        return Namespace(**{"duration": None, "cli": False, "cli_duration": None, "web": None, **kw})
+        return Namespace(**{"duration": None, "cli": False, "cli_duration": None, "web": None, "time_scale": None,
+                            "switch_ports": None, "switch_links": None, "cpu_split": None, "pcap": False, **kw})
+
+    def load(o):
+        return load_scenario(smoke, _overrides(o))
 
     smoke = "scenarios/smoke.yaml"  # timeline action at t = 1 s, duration 3 s
-    sc = load_scenario(smoke)
-    assert _session_options(opts(cli=True, duration=float("inf"), web=8765), sc) is None and sc.duration_s is None
-    assert "needs --cli" in _session_options(opts(duration=float("inf")), load_scenario(smoke))
-    assert "t = 1 s" in _session_options(opts(cli=True, duration=0.5), load_scenario(smoke))
-    assert "(--cli)" in _session_options(opts(web=8765), load_scenario(smoke))
-    sc = load_scenario(smoke)
-    assert _session_options(opts(duration=10.0), sc) is None and sc.duration_s == 10.0
+    o = opts(cli=True, duration=float("inf"), web=8765)
+    sc = load(o)
+    assert _session_options(o, sc) is None and sc.duration_s is None
+    o = opts(duration=float("inf"))
+    assert "needs --cli" in _session_options(o, load(o))
+    with pytest.raises(ScenarioError, match="t=1.0 s is after duration_s=0.5"):
+        load(opts(cli=True, duration=0.5))
+    o = opts(web=8765)
+    assert "(--cli)" in _session_options(o, load(o))
+    o = opts(duration=10.0)
+    sc = load(o)
+    assert _session_options(o, sc) is None and sc.duration_s == 10.0
 
 
 def test_progress_line_fills_the_bar_with_simulated_time_and_shows_the_counters():
