@@ -9,7 +9,7 @@ MEAS and the CTRL both cross counts twice (the loop sees the sum). Both arrangem
 mode: ``v_ref`` (the SDC closes the inner current loop, as the paper's SDC outputs the modulation
 signals) and ``i_ref`` (the SDC sends the limited current reference, the converter keeps its own
 current loop); see docs/sdc.md, ``remote_apply``. Every run is compared with the HD reference
-(plant/hd_reference.py: the continuous law with the converter's current loop at 50 µs) at the SDC's
+(plant/hd_reference.py: the continuous law with the SDC's own parameters at 50 µs) at the SDC's
 sample instants."""
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ trapezoid-cumulative in float32 and in float64 (F2's method), forward Euler (flo
 steps at most PLANT_STEP_MAX_S (Ts / m with m = ceil(Ts / 0.25 ms)); the SDC's output is held over
 the m plant steps of a sample, in the paper's loop (the answer to a sample drives the plant until
 the next sample; remote_apply = v_ref, the SDC closes the inner current loop). Each run is compared
-with the HD reference (plant/hd_reference.py: the continuous law with the converter's current loop at
+with the HD reference (plant/hd_reference.py: the continuous law with the SDC's own parameters at
 50 µs) at its own sample instants."""
 
 from __future__ import annotations

@@ -26,10 +26,14 @@ def _worst(cmp: dict) -> float:
     return max(c["rms_over_range_pct"] for c in cmp.values())
 
 
-def test_the_reference_is_the_law_with_the_converters_current_loop_at_50_us():
-    p, sdc = hd.reference_visc_params(), ViscParams()
-    assert (p.k_pc, p.k_ic) == (TurbineParams().kpc, TurbineParams().kic) == (1.27, 14.3)
-    assert replace(p, k_pc=sdc.k_pc, k_ic=sdc.k_ic) == sdc  # nothing else differs from the SDC's law
+def test_the_reference_is_the_sdcs_own_law_at_50_us():
+    """Issue 39 item 8: the paper's HD ViSC is the same controller in RSCAD: the SDC's parameters, its
+    current loop (k_pc 0.13, k_ic 1.53) included; the converter's own loop (1.27 / 14.3) only as the
+    named pre-issue-39 variant."""
+    assert hd.reference_visc_params() == ViscParams()
+    conv = hd.converter_loop_visc_params()
+    assert (conv.k_pc, conv.k_ic) == (TurbineParams().kpc, TurbineParams().kic) == (1.27, 14.3)
+    assert replace(conv, k_pc=ViscParams().k_pc, k_ic=ViscParams().k_ic) == ViscParams()
     assert hd.HD_STEP_S == 50e-6
 
 
@@ -54,14 +58,16 @@ def test_on_samples_reads_the_sdc_run_at_its_own_rows():
 
 
 @pytest.mark.slow
-def test_halving_the_reference_step_changes_it_by_less_than_a_tenth_of_a_percent():
+def test_halving_the_reference_step_changes_it_by_less_than_a_fifth_of_a_percent():
     ref_case = hd.reference_case(SMALL)
     at_50 = run_hd(ref_case, hd.reference_visc_params())
     at_25 = run_hd(replace(ref_case, step_s=25e-6), hd.reference_visc_params())
     assert at_50["q"].shape == (6995, 2) and at_25["q"].shape == (13990, 2)
     assert np.ptp(at_50["q"]) > 0.5  # a real disturbance
     change = compare(hd.on_samples(at_50, SMALL), hd.on_samples(at_25, SMALL))
-    assert _worst(change) < 0.1, change  # measured 0.037 % (δ)
+    # measured 0.110 % (e_mag) with the SDC's own law as the reference on c1ecc6b's IEC WPP (0.091 % with the
+    # converter's loop; 0.037 % before that WPP): a step's error far below F1's deviations
+    assert _worst(change) < 0.2, change
 
 
 @pytest.mark.slow
@@ -72,7 +78,9 @@ def test_f1_tustin_at_067ms_against_the_50us_reference():
     res = compare(hd.on_samples(run_sdc(case), case), hd.reference_on_samples(case))
     pct = {q: c["rms_over_range_pct"] for q, c in res.items()}
     assert pct == pytest.approx(F1_PCT, abs=0.05), pct  # the tolerance: rounding across machines and numba builds
-    assert max(pct, key=pct.get) == "q"  # the largest: Q after the fault and after clearance (the SDC's current loop)
+    # the largest: e_mag, 74 % of its squared deviation 1.5-2 s, after the event (the same 3.45 % against the
+    # pre-issue-39 reference: not the current loop); q's fell from 2.19 % to 1.52 % with the SDC's own loop
+    assert max(pct, key=pct.get) == "e_mag"
 
 
-F1_PCT = {"v_pcc": 0.065, "q": 1.083, "delta": 0.679, "e_mag": 0.450}  # measured on the issue-28 turbines (GSC holds the DC link, FRT on the IEC-filtered voltage, active damping, plant voltage control)
+F1_PCT = {"v_pcc": 0.263, "q": 1.522, "delta": 0.414, "e_mag": 3.384}  # measured with the SDC's own law as the reference (issue 39 item 8) on c1ecc6b's IEC 61400-27-1 WPP
