@@ -155,7 +155,7 @@ def test_a_failed_experiment_is_reported_and_the_others_still_run(tmp_path):
     assert rows["OK.b"]["verdict"] == "failed" and "no finding" in rows["OK.b"]["reason"]
     assert rows["NR.a"]["verdict"] == "not run" and rows["NR.a"]["reason"] == "needs root"
     assert all("--only" in r["command"] and "--quick" in r["command"] for r in rows.values())
-    assert data["summary"] == {"yes": 0, "partly": 1, "no": 0, "failed": 2, "not run": 1}
+    assert data["summary"] == {"yes": 0, "partly": 1, "consistent": 0, "no": 0, "failed": 2, "not run": 1}
     assert len(lines) == 6 and "BOOM failed" in lines[1] and "OK ok" in lines[3]
     on_disk = json.loads((tmp_path / "claims.json").read_text())
     assert on_disk["claims"] == json.loads(json.dumps(data["claims"]))
@@ -288,7 +288,7 @@ def test_a_measured_finding_only_for_a_question_beyond_the_paper(tmp_path):
     rows = {r["id"]: r for r in data["claims"]}
     assert rows["BX.b"]["verdict"] == MEASURED and rows["BX.b"]["beyond"] and not rows["BX.a"]["beyond"]
     assert rows["BAD.a"]["verdict"] == "failed" and "claim of the paper" in rows["BAD.a"]["reason"]
-    assert data["summary"] == {"yes": 1, "partly": 0, "no": 0, "failed": 1, "not run": 0, MEASURED: 1}
+    assert data["summary"] == {"yes": 1, "partly": 0, "consistent": 0, "no": 0, "failed": 1, "not run": 0, MEASURED: 1}
     html = (tmp_path / "index.html").read_text()
     claims_part, beyond_part = html.split("<h2>Beyond the paper</h2>")
     assert "BX.a" in claims_part.split("<h2>Claims</h2>")[1] and "up to 2 ms" in beyond_part.split("<h2>Figures")[0]

@@ -41,11 +41,17 @@ def test_every_registered_claim_has_a_kind_and_the_decided_ones_are_not_reproduc
     kinds = {c.id: c.kind for e in EXPERIMENTS for c in e.claims}
     assert set(kinds.values()) <= set(CLAIM_KINDS)
     decided = {"F6.c": INPUT, "F6net.a": INPUT, "F4net.b": CONSISTENCY, "F5net.a": CONSISTENCY,
-               "F7net.a": CONSISTENCY, "F8net.a": CONSISTENCY, "F9net.b": CONSISTENCY}
+               "F7net.a": CONSISTENCY, "F8net.a": CONSISTENCY, "F9net.b": CONSISTENCY,
+               # issue 39 item 9: a network row repeating a printed claim its offline twin judges
+               **dict.fromkeys(("F1net.a", "F2net.a", "F3net.a", "F3net.b", "F4net.a", "F5net.b", "F6net.b",
+                                "F8net.b", "F9net.a"), CONSISTENCY)}
     assert {i: kinds[i] for i in decided} == decided
     beyond = {c.id for e in EXPERIMENTS for c in e.claims if c.beyond}
     assert beyond and all(kinds[i] != REPRODUCTION for i in beyond)
     assert kinds["F9.d"] == REPRODUCTION and kinds["F7.a"] == REPRODUCTION
+    # each printed claim counted once: no network row is a reproduction beside its offline twin (F4hnet.a is
+    # the network's own claim: H programmed at run time through it)
+    assert [i for i, k in kinds.items() if "net." in i and k == REPRODUCTION] == ["F4hnet.a"]
 
 
 def test_relabelled_sets_the_kind_and_refuses_an_unknown_claim():
@@ -67,7 +73,8 @@ def test_the_headline_counts_only_reproductions(tmp_path):
              "K.e": Finding("1.500", "yes"), "K.f": Finding("up to 2 ms", MEASURED)}
     lines: list[str] = []
     data = run_report([_exp("K", lambda ctx: found, claims)], tmp_path, quick=False, argv=[], progress=lines.append)
-    assert data["summary"] == {"yes": 1, "partly": 0, "no": 1, "failed": 0, "not run": 0, MEASURED: 1}
+    assert data["summary"] == {"yes": 1, "partly": 0, "consistent": 0, "no": 1, "failed": 0, "not run": 0,
+                               MEASURED: 1}
     assert data["summary_apart"] == {CONSISTENCY: {"yes": 1, "partly": 1}, INPUT: {"yes": 1}}
     assert "1 yes, 1 no, 1 measured; apart: consistency 1 yes, 1 partly; input 1 yes" in lines[-1]
     rows = {r["id"]: r for r in json.loads((tmp_path / "claims.json").read_text())["claims"]}
