@@ -105,7 +105,9 @@ def terminal_voltage(ts: dict, names) -> np.ndarray:
     for wt in names:
         i = ts[f"{wt}.i"]
         vs.append(np.where(i > 1e-3, np.hypot(ts[f"{wt}.p"], ts[f"{wt}.q"]) / np.maximum(i, 1e-3), np.nan))
-    return np.nanmean(vs, axis=0)
+    vs = np.array(vs)
+    n = np.sum(~np.isnan(vs), axis=0)
+    return np.where(n > 0, np.nansum(vs, axis=0) / np.maximum(n, 1), np.nan)
 
 
 def f3_offline(name: str, t_end: float) -> dict:
