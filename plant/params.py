@@ -125,6 +125,11 @@ class TurbineParams:
     (k_ad 0.2)]. Without it the filter capacitor rings at ~725 Hz with the dynamic-phasor network."""
     w_ad: float = 50.0
     """Active damping's low-pass cut-off, rad/s [src: same as k_ad (omega_ad 50 rad/s)]."""
+    ext_active_damping: bool = True
+    """The converter's active damping also under a ViSC's reference (hd_visc, remote), with either
+    network model [paper, Section II: the ViSC's inner loop "includes ... an additional active damping
+    controller"]. Before issue 39 item 10 it acted with the dynamic-phasor network only (there the onshore
+    40 MVA SDViSC's filter rang at ~390 Hz and grew without it), so NM.F9 mixed two changes."""
     m_max: float = 1.15
     """Largest converter AC voltage per p.u. DC voltage (modulation limit), p.u./p.u. [assumed]."""
     kp_pll: float = 0.25
@@ -175,6 +180,23 @@ class TurbineParams:
     v_conv = v + (r_f + j l_f) i_ref + k_pc (i_ref - i), as plant.minimal does)."""
     trip_current: float = 2.0
     """Remote mode over-current protection: |i| above this trips the turbine back to grid-following, p.u. [assumed]."""
+    i_max_local: float = 1.5
+    """The converter's local current limit under a received voltage reference (remote, ``remote_apply``
+    "v_ref"), p.u.; 0 disables it. A real converter clamps locally, within its own control period: its
+    current controller saturates the reference at the hardware's overcurrent capability (a
+    grid-forming converter's current-limiting mode, Taul et al. 2019 as cited by the paper for the
+    law's circular limiter; RTDS/RSCAD converter models limit the current locally), and a hardware
+    trip (``trip_current``) stays behind it. Here: while the current the held v_ref drives through the
+    filter, or the filter current itself, exceeds this, the converter tracks that current scaled to
+    this magnitude with its own loop (``turbine_laws.remote_current_limit``) [paper: the SDViSC's
+    overcurrent capability 1.5 p.u., the law's ``i_max``]. Without it the SDC's limiter, a sample
+    late through the network, let the onshore SDViSC reach 1.755 p.u. (F6net.a) and 2.07 p.u. with
+    a trip offline (issue 39 item 11)."""
+    kpc_local: float = 0.5
+    """Gain of that local current-limiting loop, p.u. V / p.u. A: closed-loop pole omega0 (k + r_f)/l_f
+    = 2000 /s (0.5 ms) [assumed: the fastest the plant's 0.67 ms step integrates stably (the remote
+    turbines' filter current is stepped by Heun: h |lambda| = 1.3 < 2); a hardware limiter acts within a
+    switching period, faster still]."""
     remote_loss_fallback_s: float = 0.1
     """Remote mode: time without a new reference before falling back to grid-following, s [brief]."""
 
@@ -242,6 +264,9 @@ class WppParams:
     u_qlim_zero: float = 1.1
     """... falling linearly to 0 at this terminal voltage and above, p.u. [assumed: the 1.1 p.u.
     continuous-operation limit of the turbine's terminals (IEC 61400-21 / grid codes' 0.9-1.1)]."""
+    t_qlim_s: float = 0.05
+    """Lag of the turbine's Q order through which the Q limitation acts, s [src: Dynawo test, tQord =
+    0.05 (the Type 4 turbine's Q order lag)]."""
 
 
 @dataclass

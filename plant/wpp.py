@@ -14,7 +14,9 @@ turbines' Q limitation (the standard's QLimitation module) where the per-turbine
                    hysteresis) the integrator and the output are frozen (held)
     communication: the order reaches the turbines T_comm after its sample (transport delay)
     QLimitation:   each turbine's order clipped to its Q limit at its terminal voltage (limit falls
-                   linearly from q_max at u_qlim_knee to 0 at u_qlim_zero)
+                   linearly from q_max at u_qlim_knee to 0 at u_qlim_zero), the limit through the
+                   turbine's Q order lag T_qlim (evaluated at every call: without the lag a steep limit
+                   evaluated every 6.7 ms chatters at its own Nyquist frequency)
 
 Q_WP is the farm's applied Q order (the mean of the per-turbine orders after the Q limitation, on the
 turbine rating): the steady state is V_pcc = v_ref - K_WPqu Q within the limits. Pure: the plant hands
@@ -43,7 +45,7 @@ def legacy_params(params: WppParams | None = None) -> WppParams:
     delay, no dip freeze, no turbine Q limitation (the old/new comparison of F7)."""
     return replace(params or WppParams(), period_s=0.0, t_ufilt_s=0.0, t_qfilt_s=0.0, t_xfv_s=0.0,
                    dq_max_per_s=math.inf, comm_delay_s=0.0, u_dip=0.0, u_release=0.0,
-                   u_qlim_knee=math.inf, u_qlim_zero=math.inf)
+                   u_qlim_knee=math.inf, u_qlim_zero=math.inf, t_qlim_s=0.0)
 
 
 def _lag(y: float, u: float, dt: float, tau: float) -> float:
@@ -75,6 +77,8 @@ class WppController:
         self.u_f = 1.0  # filtered |V_pcc|
         self.q_f = 0.0  # filtered Q_WP
         self.frozen = False  # the dip flag (FRT state)
+        self.q_lim: np.ndarray | None = None  # each turbine's Q limit through its order lag (None: not yet)
+        self._dt = 0.0  # time since the previous call
         self.t_meas: float | None = None  # time of the last measurement (filters advanced to it)
         self.t_next: float | None = None  # next sample instant
         self.t_last: float | None = None  # last sample instant
@@ -93,7 +97,7 @@ class WppController:
     def _measure(self, now: float, v_pcc: float) -> None:
         if self.t_meas is None:  # not settled: the filters start at the first measurement
             self.u_f, self.q_f = v_pcc, self.q_applied
-        dt = 0.0 if self.t_meas is None else max(now - self.t_meas, 0.0)
+        dt = self._dt = 0.0 if self.t_meas is None else max(now - self.t_meas, 0.0)
         self.u_f = _lag(self.u_f, v_pcc, dt, self.p.t_ufilt_s)
         self.q_f = _lag(self.q_f, self.q_applied, dt, self.p.t_qfilt_s)
         self.t_meas = now
@@ -140,7 +144,12 @@ class WppController:
         if v_terminals is None:
             self.q_applied = self.q_turbines
             return self.q_turbines
-        q = np.minimum(self.q_turbines, q_limit_at(v_terminals, p))
+        lim = q_limit_at(v_terminals, p)
+        if self.q_lim is None or len(self.q_lim) != len(lim) or p.t_qlim_s <= 0.0:
+            self.q_lim = lim
+        else:  # through the turbine's Q order lag (the limit is applied in the turbine, not at this call rate)
+            self.q_lim = lim + (self.q_lim - lim) * math.exp(-self._dt / p.t_qlim_s)
+        q = np.minimum(self.q_turbines, self.q_lim)
         self.q_applied = float(np.mean(q)) if len(q) else self.q_turbines
         return q
 
@@ -152,5 +161,6 @@ class WppController:
         self.x = self.q = self.q_pi = self.q_turbines = self.q_applied = self.q_f = q
         self.u_f = p.v_ref - p.droop * q if v_pcc is None else float(v_pcc)
         self.frozen = False
+        self.q_lim = None
         self.t_meas = self.t_last = self.t_next = now
         self._sent.clear()

@@ -13,11 +13,22 @@ import numpy as np
 
 from plant.cases import comparison_visc_plant
 from plant.static_limit import static_limit
+from plant.wpp import legacy_params
+from report import f7_mechanism as mech
 from report import figures, net_arrangement
 from report.boundary import Boundary, smallest_sufficient, threshold
 from report.plantcases import bare_plant, sc_plant, visc_plant
 from report.registry import Context, Experiment, Finding, PaperClaim
-from report.stability import AWAY_S, LAST_S, PTP_DAMPED, V_NORMAL, Stability, of_run
+from report.stability import (
+    AWAY_S,
+    LAST_S,
+    PTP_DAMPED,
+    V_NORMAL,
+    V_TERMINAL_MAX,
+    Stability,
+    of_run,
+    time_away,
+)
 from report.verdicts import close_to, holds
 from sdc_unit.params import ViscParams
 
@@ -25,7 +36,8 @@ T_EVENT = 1.0  # s: the SCR change (the paper's 1 s)
 SCR_RANGE = (1.0, 4.0)  # the SCRs searched: from a grid as weak as the farm's own rating to above every
 # boundary the paper prints (2.04)
 CRITERION = (f"stable = after the SCR change at {T_EVENT:g} s the oscillation is damped (V_pcc p-p < {PTP_DAMPED} p.u. "
-             f"over the last {LAST_S:g} s, no divergence) AND V_pcc ends within {V_NORMAL[0]}–{V_NORMAL[1]} p.u.; "
+             f"over the last {LAST_S:g} s, no divergence) AND V_pcc ends within {V_NORMAL[0]}–{V_NORMAL[1]} p.u. AND "
+             f"no turbine terminal above {V_TERMINAL_MAX} p.u. over the last {LAST_S:g} s; "
              "oscillation-only = damped, wherever it settles")
 CRITERIA = {"stable": lambda s: s.stable, "damped": lambda s: s.damped}  # the two predicates every search uses
 # Virtual friction (eq. 4, ViscParams.supp; the gains are PARAMETERS.md's assumed ones) is what the paper
@@ -77,9 +89,20 @@ F9_CLAIMS = (
 )
 
 
-def _run_scr(make, scr: float, t_end: float) -> dict:
+WPP_VARIANTS = ("IEC", "legacy")  # the plant controller after IEC 61400-27-1 (plant/wpp.py) / as before issue 39
+
+
+def _plant(make, wpp: str = "IEC"):
+    """A plant of ``make``; ``wpp`` "legacy": its plant controller as before issue 39 (wpp.legacy_params)."""
+    plant = make()
+    if wpp == "legacy" and plant.wpp is not None:
+        plant.wpp.p = legacy_params(plant.wpp.p)
+    return plant
+
+
+def _run_scr(make, scr: float, t_end: float, wpp: str = "IEC") -> dict:
     with np.errstate(all="ignore"):  # a very weak grid can make the run diverge: recorded as "diverged", not warned
-        return make().run_offline(t_end, events=[(T_EVENT, lambda q: q.set_scr(scr))], record_every=10)
+        return _plant(make, wpp).run_offline(t_end, events=[(T_EVENT, lambda q: q.set_scr(scr))], record_every=10)
 
 
 def f7_search_settings(quick: bool) -> tuple[float, float]:
@@ -88,18 +111,45 @@ def f7_search_settings(quick: bool) -> tuple[float, float]:
 
 
 @functools.cache
-def _run_at(config: str, scr: float, t_end: float) -> dict:
+def _run_at(config: str, scr: float, t_end: float, wpp: str = "IEC") -> dict:
     """One offline run of ``config`` (a key of CONFIGS), kept: the two criteria's searches share runs."""
-    return _run_scr(CONFIGS[config], scr, t_end)
+    return _run_scr(CONFIGS[config], scr, t_end, wpp)
 
 
 @functools.cache
-def search_boundary(config: str, t_end: float, xtol: float, criterion: str = "stable") -> tuple[Boundary, dict[float, dict]]:
-    """The SCR below which ``config`` is no longer ``criterion`` (a key of CRITERIA) and the offline
-    runs either side of it; kept for the process, so F7net confirms what F7 found without searching."""
+def search_boundary(config: str, t_end: float, xtol: float, criterion: str = "stable",
+                    wpp: str = "IEC") -> tuple[Boundary, dict[float, dict]]:
+    """The SCR below which ``config`` is no longer ``criterion`` (a key of CRITERIA) after a step
+    and the offline runs either side of it; kept for the process, so F7net confirms what F7 found."""
     ok = CRITERIA[criterion]
-    b = threshold(lambda scr: ok(of_run(_run_at(config, scr, t_end), T_EVENT)), *SCR_RANGE, xtol)
-    return b, {x: _run_at(config, x, t_end) for x in (b.bracket or ())}
+    b = threshold(lambda scr: ok(of_run(_run_at(config, scr, t_end, wpp), T_EVENT)), *SCR_RANGE, xtol)
+    return b, {x: _run_at(config, x, t_end, wpp) for x in (b.bracket or ())}
+
+
+@functools.cache
+def ramp_boundary(config: str, rate: float, wpp: str = "IEC") -> dict:
+    """The slow-ramp (quasi-static) run of ``config`` (report/f7_mechanism.py): its loss SCR, the
+    record, and the states it passed every 0.1 of SCR (for the linearised check)."""
+    return mech.ramp_run(_plant(CONFIGS[config], wpp), rate, np.round(np.arange(mech.RAMP_FROM, 1.0, -0.1), 3))
+
+
+def _linearised(config: str, ramp: dict, at: dict[str, float | None]) -> dict[str, dict]:
+    """The Jacobian's least-damped mode at the ramp's states nearest above each SCR of ``at``."""
+    out = {}
+    snaps = ramp["snapshots"]
+    for label, scr in at.items():
+        above = [s for s in snaps if scr is not None and s >= scr - 1e-9]
+        if not above:
+            continue
+        s = min(above)
+        state, q_wpp = snaps[s]
+        plant = _plant(CONFIGS[config])
+        plant.set_scr(s)
+        plant.tb.q_wpp[:] = q_wpp
+        if len(state) != len(plant.state_real()):
+            continue
+        out[label] = {"scr": s, **mech.jacobian_modes(plant, state)}
+    return out
 
 
 def _fmt(x) -> str:
@@ -143,11 +193,12 @@ def _f7(ctx: Context) -> dict[str, Finding]:
             ctx.numbers[f"{criterion} boundary {name}"] = {"boundary_scr": b.value, "bracket": b.bracket,
                                                            "evaluations": b.evaluations, "note": b.note}
     val = {n: {c: b.value for c, b in bs.items()} for n, bs in bounds.items()}
+    second = _f7_second_look(ctx, val, traces, t_end, xtol)
     static = {n: static_limit(CONFIGS[n]()) for n in F7_CONFIGS}  # the load-flow nose of each case
     ctx.numbers["static transfer limit"] = static
-    ev = {n: f"static transfer limit (no load flow below; plant controller at its limit) SCR {static[n]:.2f}: "
-          f"{'the loss of stability above it is one of damping, not of transfer capacity' if _above(val[n]['stable'], static[n]) else 'the boundary is the static limit'}; "
-          "stable: " + _evidence(bounds[n]["stable"], traces[n]["stable"]) + "; oscillation only: "
+    ev = {n: f"static transfer limit (plant/static_limit.py) SCR {static[n]:.2f}: "
+          f"{'the step loss above it is not one of transfer capacity' if _above(val[n]['stable'], static[n]) else 'the boundary is the static limit'}; "
+          + second[n] + "; stable: " + _evidence(bounds[n]["stable"], traces[n]["stable"]) + "; oscillation only: "
           + _evidence(bounds[n]["damped"], traces[n]["damped"]) for n in F7_CONFIGS}
     found["F7.a"] = _boundary_finding(bounds["none"]["stable"], bounds["none"]["damped"], 2.04, ev["none"])
     found["F7.b"] = _boundary_finding(bounds["SC"]["stable"], bounds["SC"]["damped"], 1.58, ev["SC"],
@@ -161,6 +212,61 @@ def _f7(ctx: Context) -> dict[str, Finding]:
                         "boundaries can come out higher than in the full report." if ctx.quick else ""))
     _f7_figure(ctx, traces)
     return found
+
+
+def _f7_second_look(ctx: Context, val, traces, t_end: float, xtol: float) -> dict[str, str]:
+    """Per case: the step boundary with the plant controller as before issue 39, the slow-ramp
+    boundary (IEC and legacy controller), the mechanism of each loss and the linearised damping of
+    the continuous plant at the step and ramp boundaries (report/f7_mechanism.py); the text for the
+    findings, the numbers and the figure."""
+    rate = mech.ramp_settings(ctx.quick)
+    text, ramps = {}, {}
+    for n in F7_CONFIGS:
+        legacy, legacy_runs = search_boundary(n, t_end, xtol, "stable", "legacy")
+        ramp = {w: ramp_boundary(n, rate, w) for w in WPP_VARIANTS}
+        ramps[n] = ramp
+        lo = min(traces[n]["stable"]) if traces[n]["stable"] else None
+        step_mech = "—" if lo is None else mech.mechanism(*_tv(traces[n]["stable"][lo]), T_EVENT + 1.0)
+        ramp_mech = {w: "stable to the floor" if r["loss_t"] is None else
+                     mech.mechanism(r["t"], r["v_pcc"], r["loss_t"] + LAST_S, r.get("v_wt")) for w, r in ramp.items()}
+        lin = _linearised(n, ramp["IEC"], {"step boundary": val[n]["stable"],
+                                           "ramp boundary": None if ramp["IEC"]["loss_scr"] is None
+                                           else ramp["IEC"]["loss_scr"] + 0.05})
+        ctx.numbers[f"F7 second look {n}"] = {
+            "step_boundary_iec": val[n]["stable"], "step_boundary_legacy_wpp": legacy.value,
+            "ramp_boundary_iec": ramp["IEC"]["loss_scr"], "ramp_boundary_legacy_wpp": ramp["legacy"]["loss_scr"],
+            "ramp_rate_per_s": rate, "step_mechanism": step_mech, "ramp_mechanism": ramp_mech, "linearised": lin}
+        lin_txt = "; ".join(f"at the {k} (ramp state at SCR {m['scr']:.2f}, plant controller held): "
+                            f"{mech.describe_modes(m)}" for k, m in lin.items())
+        text[n] = (f"step boundary with the plant controller before issue 39: {_fmt(legacy.value)}; slow ramp "
+                   f"({rate:g} SCR/s from {mech.RAMP_FROM:g}): IEC controller lost at {_fmt(ramp['IEC']['loss_scr'])}"
+                   f" ({ramp_mech['IEC']}), legacy at {_fmt(ramp['legacy']['loss_scr'])} ({ramp_mech['legacy']}); "
+                   f"below the step boundary: {step_mech}; linearised: {lin_txt or 'no ramp state'}")
+    _f7_ramp_figure(ctx, ramps, traces)
+    return text
+
+
+def _tv(r: dict) -> tuple:
+    return r["t"], r["v_pcc"]
+
+
+def _f7_ramp_figure(ctx: Context, ramps: dict[str, dict[str, dict]], traces) -> None:
+    fig, axes = figures.new(len(ramps), height_per_row=2.0, sharex=False)
+    for ax, (name, by_wpp) in zip(axes[:, 0], ramps.items()):
+        for w, style in zip(WPP_VARIANTS, ("-", "--")):
+            r = by_wpp[w]
+            loss = "stable to the floor" if r["loss_scr"] is None else f"lost at SCR {r['loss_scr']:.3f}"
+            ax.plot(r["scr"], r["v_pcc"], ls=style, lw=0.7, label=f"{name}, {w} plant controller, ramp: {loss}")
+        for v in V_NORMAL:
+            ax.axhline(v, color="0.5", ls=":", lw=0.8)
+        ax.set_xlim(mech.RAMP_FROM, 1.0)
+        ax.set_ylabel("|V_pcc| [p.u.]")
+        ax.legend(fontsize=6, loc="lower left")
+    axes[-1, 0].set_xlabel("SCR along the slow ramp (time runs right to left); after the loss the run goes on "
+                           f"{mech.AFTER_LOSS_S:g} s at that SCR to show what the loss is", fontsize=8)
+    figures.save(ctx, fig, "f7_ramp_boundaries", "F7's quasi-static boundaries: the SCR lowered slowly "
+                 "(report/f7_mechanism.py); the step boundaries are in f7_weak_grid_boundaries.",
+                 prefix="Testbed (issue 39): ")
 
 
 def _above(boundary: float | None, static: float) -> bool:
@@ -262,25 +368,34 @@ def _f9(ctx: Context) -> dict[str, Finding]:
             {"n_stable": n, "n_damped": b_damped.value,
              "other_friction": {"n_stable": searches[("stable", other)].value,
                                 "n_damped": searches[("damped", other)].value}}),
-        "F9.d": _f9d(s, o),
+        "F9.d": _f9d(s, o, f9_run(3, t_end, fr)),
     }
     ns = {f: {0, 3, 4} | {int(k) for c in CRITERIA for k, _ in searches[(c, f)].evaluations} for f in (fr, other)}
     _f9_figure(ctx, t_end, ns)
     return found
 
 
-def _f9d(s: dict[int, Stability], o: dict[int, Stability]) -> Finding:
-    """When V_pcc leaves the normal band for good with 3 SDViSCs, against the paper's ≈ 3 s (10 % rule)."""
-    t3, t0 = s[3].t_away, s[0].t_away
-    how = (f"time from which V_pcc is never back within {V_NORMAL[0]}–{V_NORMAL[1]} p.u. for {AWAY_S:g} s to the "
-           f"end of the run (report/stability.py time_away); 0 SDViSCs: {_fmt_t(t0)}; "
-           f"{FRICTION[not VIRTUAL_FRICTION_DEFAULT]}: 3 SDViSCs {_fmt_t(o[3].t_away)}")
-    measured = {"t_away_s": t3, "t_away_0_s": t0, "t_away_other_friction_s": o[3].t_away}
+WT1_CS1 = 0  # "WT1_CS1: Wind Turbine 1 in Cluster 1" (the paper's F9 caption): the plant's turbine 0
+
+
+def _f9d(s: dict[int, Stability], o: dict[int, Stability], run3: dict) -> Finding:
+    """When the voltage of WT1_CS1 (the device the paper's figure shows) leaves the normal band for
+    good with 3 SDViSCs, against the paper's ≈ 3 s (10 % rule); the PCC's beside it."""
+    v_wt1 = run3["v_wt"][:, WT1_CS1]
+    t3 = time_away(run3["t"], v_wt1, T_EVENT)
+    t_pcc = s[3].t_away
+    how = (f"read at WT1_CS1 (turbine {WT1_CS1}, the caption's 'Wind Turbine 1 in Cluster 1'): time from which its "
+           f"terminal voltage is never back within {V_NORMAL[0]}–{V_NORMAL[1]} p.u. for {AWAY_S:g} s to the end of "
+           f"the run (report/stability.py time_away); at the PCC: {_fmt_t(t_pcc)}; 0 SDViSCs (PCC): "
+           f"{_fmt_t(s[0].t_away)}; {FRICTION[not VIRTUAL_FRICTION_DEFAULT]}: 3 SDViSCs (PCC) {_fmt_t(o[3].t_away)}; "
+           f"WT1_CS1 at the end {v_wt1[-1]:.3f} p.u.")
+    measured = {"t_away_wt1_cs1_s": t3, "t_away_pcc_s": t_pcc, "t_away_0_s": s[0].t_away,
+                "t_away_other_friction_s": o[3].t_away}
     if t3 is None:
-        return Finding("3 SDViSCs: V_pcc does not leave the band", "no",
+        return Finding("3 SDViSCs: WT1_CS1 does not leave the band", "no",
                        f"{how}; with 3 SDViSCs: {s[3].describe()}", measured)
-    return Finding(f"3 SDViSCs: away from the band from {t3:.2f} s", close_to(t3, F9_PAPER_T_AWAY),
-                   f"{how}; 10 % of {F9_PAPER_T_AWAY:g} s = yes, 35 % partly", measured)
+    return Finding(f"3 SDViSCs: WT1_CS1 away from the band from {t3:.2f} s (PCC: {_fmt_t(t_pcc)})",
+                   close_to(t3, F9_PAPER_T_AWAY), f"{how}; 10 % of {F9_PAPER_T_AWAY:g} s = yes, 35 % partly", measured)
 
 
 def _fmt_t(t: float | None) -> str:

@@ -18,6 +18,10 @@ PTP_DAMPED = 0.02  # p.u.: peak-to-peak of V_pcc over the last second below this
 LAST_S = 1.0  # s: the window at the end of the run the damping and the final voltage are read over
 V_NORMAL = (0.9, 1.1)  # p.u.: the normal operating band of the PCC voltage (±10 % of rated, the usual
 # continuous-operation range of grid codes): "stable operating condition" near the rated value
+V_TERMINAL_MAX = 1.1  # p.u.: no turbine terminal above this in a stable case (issue 39): 1.1 p.u. is the
+# upper end of the continuous operating range of the turbines' terminals (grid codes' 0.9-1.1, IEC 61400-21)
+# — a "stable" farm that holds its PCC in the band only by driving its turbines over it is not at an
+# operating condition a grid code accepts; checked over the last LAST_S when the run records v_wt
 AWAY_S = 0.5  # s: V_pcc counts as back only if it stays in the band this long — longer than a period of
 # the weak-grid oscillations (a few Hz), so an oscillation swinging across the band is "away", while the
 # SCR step's own dip, over once V_pcc has stayed back for this long, is not
@@ -32,6 +36,12 @@ class Stability:
     v_min: float  # lowest V_pcc after the event [p.u.]
     finite: bool  # False: the simulation diverged (non-finite values)
     t_away: float | None  # when V_pcc left the normal band for good (see :func:`time_away`); None: it did not
+    v_terminal_max: float = float("nan")  # highest turbine terminal voltage over the last LAST_S (nan: not recorded)
+
+    @property
+    def terminal_over(self) -> bool:
+        """A turbine terminal above V_TERMINAL_MAX over the last LAST_S."""
+        return bool(self.v_terminal_max > V_TERMINAL_MAX)
 
     @property
     def damped(self) -> bool:
@@ -45,8 +55,9 @@ class Stability:
 
     @property
     def stable(self) -> bool:
-        """Stable as the paper means it: damped AND back in the normal band."""
-        return self.damped and self.in_band
+        """Stable as the paper means it: damped AND back in the normal band, and (issue 39) no turbine
+        terminal above V_TERMINAL_MAX."""
+        return self.damped and self.in_band and not self.terminal_over
 
     @property
     def state(self) -> str:
@@ -54,14 +65,17 @@ class Stability:
             return "diverged"
         if self.stable:
             return "stable"
+        if self.damped and self.in_band:
+            return f"damped, a terminal at {self.v_terminal_max:.3f} p.u. (> {V_TERMINAL_MAX})"
         return f"damped at {self.v_end:.2f} p.u. (out of the band)" if self.damped else "oscillating"
 
     def describe(self) -> str:
         if not self.finite:
             return "diverged (non-finite V_pcc)"
         away = "" if self.t_away is None else f", away from {V_NORMAL[0]}–{V_NORMAL[1]} p.u. from {self.t_away:.2f} s"
+        wt = "" if np.isnan(self.v_terminal_max) else f", terminals ≤ {self.v_terminal_max:.3f}"
         return (f"{self.state}: V_pcc end {self.v_end:.3f}, p-p last {LAST_S:g} s {self.ptp_last_s:.3f}, "
-                f"min {self.v_min:.3f}{away}")
+                f"min {self.v_min:.3f}{wt}{away}")
 
 
 def time_away(t: np.ndarray, v: np.ndarray, t_event: float) -> float | None:
@@ -84,17 +98,24 @@ def time_away(t: np.ndarray, v: np.ndarray, t_event: float) -> float | None:
     return float(t[first])
 
 
-def stability(t: np.ndarray, v: np.ndarray, t_event: float) -> Stability:
-    """The criterion on a V_pcc trace ``v`` over ``t`` [s] with the event at ``t_event``."""
+def stability(t: np.ndarray, v: np.ndarray, t_event: float, v_wt: np.ndarray | None = None) -> Stability:
+    """The criterion on a V_pcc trace ``v`` over ``t`` [s] with the event at ``t_event``; ``v_wt``
+    (samples x turbines), when given, the turbines' terminal voltages."""
     t, v = np.asarray(t, dtype=float), np.asarray(v, dtype=float)
     last = t >= t[-1] - LAST_S
     after = t > t_event
     finite = bool(np.all(np.isfinite(v)))
     ptp = float(np.ptp(v[last])) if finite else float("inf")
     v_min = float(np.nanmin(v[after])) if np.any(np.isfinite(v[after])) else float("nan")
-    return Stability(float(v[-1]), ptp, v_min, finite, time_away(t, v, t_event))
+    v_t = float("nan")
+    if v_wt is not None and len(v_wt):
+        w = np.asarray(v_wt, dtype=float)[last]
+        v_t = float(np.nanmax(w)) if np.any(np.isfinite(w)) else float("nan")
+    return Stability(float(v[-1]), ptp, v_min, finite, time_away(t, v, t_event), v_t)
 
 
 def of_run(r: dict, t_event: float) -> Stability:
     """:func:`stability` of a run's record (``t``, ``v_pcc``), as the plant and the network runs give it."""
-    return stability(r["t"], r["v_pcc"], t_event)
+    v_wt = r.get("v_wt")
+    ok = isinstance(v_wt, np.ndarray) and v_wt.ndim == 2 and len(v_wt) == len(r["t"])
+    return stability(r["t"], r["v_pcc"], t_event, v_wt if ok else None)

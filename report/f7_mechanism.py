@@ -1,0 +1,164 @@
+"""F7's second look (issue 39 item 1): the quasi-static (slow-ramp) boundary beside the step one, what
+each loss of stability is (limit cycle, growing oscillation, sag out of the band), and a linearised
+check of the damping at the boundary.
+
+Ramp: the SCR steps from 7.14 to ``RAMP_FROM`` at 1 s (the step's own transient over by
+``RAMP_START``), then falls linearly at ``rate`` per second, applied as a staircase of ``RAMP_DT``
+steps (a step of rate x RAMP_DT, 0.0025 at the full rate: far below the bisection's tolerance). The
+rate is slow against the slowest closed loop the farm has, the plant controller's (time constant
+~0.5-1 s): the SCR moves by ≤ 0.025 within it, so the farm follows its operating point (quasi-static)
+— the ramp boundary is where that operating point stops being stable, the step boundary where a jump
+stops landing on it. The loss is the first 1 s window (checked every 0.5 s) whose V_pcc is not
+"stable" (report/stability.py); the SCR reported is the one at the window's start.
+
+Linearisation: the Jacobian of the plant's right-hand side (``Plant.rhs_real``, central differences)
+at a state the ramp passed through (a quasi-static operating point), the plant controller's order
+held (its loop is sampled at 0.1 s and outside the right-hand side: the continuous plant, i.e. the
+turbines' current loops and PLLs, the ViSC, the SC, the network). Its least-damped oscillatory
+mode (0.5-20 Hz) says whether the continuous plant loses damping at the boundary.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from report.stability import LAST_S, PTP_DAMPED, stability
+
+T_EVENT = 1.0
+RAMP_FROM = 4.0  # SCR the ramp starts from (above every step boundary of the IEC controller)
+RAMP_START = 3.0  # s: the ramp starts (2 s after the step to RAMP_FROM)
+RAMP_DT = 0.1  # s: the staircase's step
+RAMP_FLOOR = 1.0  # the ramp stops here
+AFTER_LOSS_S = 2.5  # s: run on after the loss, to show what the loss is
+OSC_BAND_HZ = (0.5, 20.0)  # oscillatory modes considered in the linearised check
+
+
+def ramp_settings(quick: bool) -> float:
+    """Ramp rate [SCR/s]: 0.025 in full (the SCR moves 0.025 within the plant controller's ~1 s),
+    0.05 with --quick."""
+    return 0.05 if quick else 0.025
+
+
+def ramp_run(plant, rate: float, snapshot_scrs=()) -> dict:
+    """Run ``plant`` down the ramp until it is no longer stable (or RAMP_FLOOR): the record (every 10th
+    step) with ``scr`` per sample, ``loss_scr`` (None: stable to the floor), ``loss_t`` and the plant
+    states at the SCRs ``snapshot_scrs`` passed on the way (``snapshots``: {scr: (state, the plant
+    controller's per-turbine orders)})."""
+    rec: dict[str, list] = {}
+    snaps: dict[float, tuple[np.ndarray, np.ndarray]] = {}
+    want = sorted(snapshot_scrs, reverse=True)
+    scr, loss_t, loss_scr, t_check = 7.14, None, None, RAMP_START + LAST_S
+    scr_hist: list[tuple[float, float]] = []
+
+    def scr_at(t: float) -> float:
+        if t < T_EVENT:
+            return 7.14
+        if t < RAMP_START:
+            return RAMP_FROM
+        k = np.floor((t - RAMP_START) / RAMP_DT + 1e-9)
+        return max(RAMP_FROM - rate * RAMP_DT * k, RAMP_FLOOR)
+
+    with np.errstate(all="ignore"):
+        while True:
+            t_next = plant.t + RAMP_DT
+            s = scr_at(plant.t + 1e-9)
+            if s != scr:
+                while want and scr <= want[0] + 1e-9 and loss_t is None:  # settled RAMP_DT at scr
+                    snaps[want.pop(0)] = (plant.state_real().copy(), plant.tb.q_wpp.copy())
+                scr = s
+                plant.set_scr(s)
+            r = plant.run_offline(t_next, record_every=10)
+            for k, v in r.items():
+                rec.setdefault(k, []).append(v)
+            scr_hist.append((plant.t, scr))
+            if loss_t is None and plant.t >= t_check:
+                t = np.concatenate(rec["t"])
+                v = np.concatenate(rec["v_pcc"])
+                w = t >= plant.t - LAST_S
+                v_wt = np.concatenate(rec["v_wt"])[w] if "v_wt" in rec else None
+                st = stability(t[w], v[w], t[w][0] - 1.0, v_wt)
+                if not st.stable:
+                    loss_t = float(t[w][0])
+                    loss_scr = scr_at(loss_t)
+                t_check += 0.5
+            if loss_t is not None and plant.t >= loss_t + LAST_S + AFTER_LOSS_S:
+                break
+            if loss_t is None and scr <= RAMP_FLOOR and plant.t > t_check + LAST_S:
+                break
+    out = {k: np.concatenate(v) for k, v in rec.items()}
+    hist = np.array(scr_hist)
+    out["scr"] = np.interp(out["t"], hist[:, 0], hist[:, 1])
+    out.update(loss_scr=loss_scr, loss_t=loss_t, snapshots=snaps, rate=rate)
+    return out
+
+
+def dominant_hz(t: np.ndarray, v: np.ndarray) -> float:
+    """Frequency of the largest spectral peak of v - mean above 0.3 Hz (nan if none)."""
+    if len(v) < 8 or not np.all(np.isfinite(v)):
+        return float("nan")
+    dt = float(np.median(np.diff(t)))
+    spec = np.abs(np.fft.rfft((v - np.mean(v)) * np.hanning(len(v))))
+    f = np.fft.rfftfreq(len(v), dt)
+    ok = f >= 0.3
+    return float(f[ok][np.argmax(spec[ok])]) if np.any(ok) else float("nan")
+
+
+def mechanism(t: np.ndarray, v: np.ndarray, t_from: float, v_wt: np.ndarray | None = None) -> str:
+    """What the trace after ``t_from`` shows: diverged, a growing oscillation (loss of damping), a
+    limit cycle (sustained, bounded: last second's peak-to-peak within ±30 % of the one before), a
+    sag out of the band (damped, current/transfer limited), a terminal over 1.1, or stable."""
+    after = t >= t_from
+    t, v = t[after], v[after]
+    if len(t) < 4 or not np.all(np.isfinite(v)):
+        return "diverged"
+    last = t >= t[-1] - LAST_S
+    before = (t >= t[-1] - 2 * LAST_S) & ~last
+    ptp1 = float(np.ptp(v[last]))
+    ptp0 = float(np.ptp(v[before])) if np.any(before) else ptp1
+    f = dominant_hz(t[last | before], v[last | before])
+    if ptp1 >= PTP_DAMPED:
+        kind = "growing oscillation (loss of damping)" if ptp1 > 1.3 * ptp0 else "limit cycle (sustained, bounded)"
+        return f"{kind}, {f:.1f} Hz, V_pcc {np.min(v[last]):.2f}-{np.max(v[last]):.2f}"
+    st = stability(t, v, t[0] - 1.0, None if v_wt is None else v_wt[after])
+    if not st.in_band:
+        return f"sag out of the band (damped at {v[-1]:.2f} p.u.: current/transfer limited)"
+    if st.terminal_over:
+        return f"terminal over {st.v_terminal_max:.3f} p.u. (damped, V_pcc {v[-1]:.2f})"
+    return "stable"
+
+
+def jacobian_modes(plant, state: np.ndarray, band_hz=OSC_BAND_HZ) -> dict:
+    """The least-damped oscillatory mode (``band_hz``) and the largest real part of the Jacobian of
+    ``plant``'s right-hand side at ``state`` (central differences, relative step 1e-6); the plant's
+    state is restored after."""
+    keep = plant.state_real().copy()
+    slow = plant.tb.slow
+    y0 = np.asarray(state, dtype=float)
+    n = len(y0)
+    jac = np.empty((n, n))
+    with np.errstate(all="ignore"):
+        for k in range(n):
+            h = 1e-6 * max(1.0, abs(y0[k]))
+            yp, ym = y0.copy(), y0.copy()
+            yp[k] += h
+            ym[k] -= h
+            jac[:, k] = (plant.rhs_real(0.0, yp) - plant.rhs_real(0.0, ym)) / (2 * h)
+        residual = float(np.max(np.abs(plant.rhs_real(0.0, y0))))
+    plant.set_state_real(keep)
+    plant.tb.slow = slow
+    eig = np.linalg.eigvals(jac)
+    hz = np.abs(eig.imag) / (2 * np.pi)
+    osc = eig[(hz >= band_hz[0]) & (hz <= band_hz[1])]
+    if len(osc) == 0:
+        return {"mode": None, "max_real": float(np.max(eig.real)), "residual": residual}
+    m = osc[np.argmax(osc.real / np.abs(osc))]
+    return {"mode_hz": float(abs(m.imag) / (2 * np.pi)), "damping_ratio": float(-m.real / abs(m)),
+            "mode_real": float(m.real), "max_real": float(np.max(eig.real[np.abs(eig) > 1e-3])),
+            "residual": residual}
+
+
+def describe_modes(m: dict) -> str:
+    if m.get("mode_hz") is None:
+        return "no oscillatory mode in the band"
+    return (f"least-damped mode {m['mode_hz']:.2f} Hz, ζ = {m['damping_ratio']:.3f} (Re {m['mode_real']:.2f}/s); "
+            f"largest Re of all modes {m['max_real']:.3f}/s; |f(x)| at the point {m['residual']:.1e}")
