@@ -14,6 +14,7 @@ import os
 import signal
 import socket
 import subprocess
+import sys
 import threading
 import time
 from pathlib import Path
@@ -225,5 +226,8 @@ class Processes:
                 proc.wait(timeout=max(0.1, deadline - time.time()))
             except subprocess.TimeoutExpired:
                 proc.kill()
-                proc.wait()
+                try:
+                    proc.wait(timeout=5)
+                except subprocess.TimeoutExpired:  # (D state): left to the clean-up, which reports it
+                    print(f"sdvisc: a process (pid {proc.pid}) did not end 5 s after SIGKILL", file=sys.stderr)
         waited["others"] = round(time.perf_counter() - started, 3)

@@ -19,6 +19,7 @@ import subprocess
 import time
 from pathlib import Path
 
+from host_tools.child_signals import default_signals
 from sdvisc.netns import stat_cpu_seconds
 
 PASSED_ENV_PREFIXES = ("PYTHON", "SDVISC", "OPENBLAS", "NUMBA", "OMP")
@@ -63,7 +64,7 @@ class RemoteProcess:
         self.user = getattr(host, "user", "root") or "root"
         cmd = remote_command(host.pid, args, env, self.pidfile, self.user)
         self.proc = subprocess.Popen([*self.ssh, "sh", "-c", shlex.quote(cmd)], stdin=stdin, stdout=stdout,
-                                     stderr=stderr, start_new_session=True)
+                                     stderr=stderr, start_new_session=True, preexec_fn=default_signals)
         self.stdin = self.proc.stdin
 
     # ------------------------------------------------------------------ Popen's interface

@@ -20,6 +20,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from host_tools import cleanup, cpu_split, ovs_revalidation
+from host_tools.child_signals import bound_node_stops, give_children_default_signals
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibration_cache import after_run, choose_time_scale
 from scenarios.cluster_run import ClusterRun, set_link_by_shell
@@ -338,6 +339,7 @@ class Run(RunState):
                 try:
                     if self.cluster is not None:
                         self.cluster.prune_lost(self.net)
+                    bound_node_stops(self.net)  # no node's shell can make Mininet's stop wait for ever
                     self.net.stop()
                 except Exception as exc:  # noqa: BLE001 - teardown must go on
                     print(f"sdvisc: mininet stop failed ({exc}); cleaning up", file=sys.stderr)
@@ -356,6 +358,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
     interactive session (:mod:`scenarios.live`) that ends on ``exit`` or at ``cli_duration_s``;
     ``web_port``: its live view (:mod:`scenarios.web`)."""
     check_open_ended(scenario.duration_s, cli)
+    give_children_default_signals()  # under nohup every child would inherit SIGHUP ignored (issue 42)
     if os.geteuid() != 0:
         raise RunError("sdvisc run needs root (Mininet creates namespaces, veths and bridges)")
     out = Path(out_dir)

@@ -22,6 +22,7 @@ Subclasses of Mininet's cluster classes (``mininet.examples.cluster``), not a fo
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
 import subprocess
@@ -43,6 +44,7 @@ from mininet.net import Mininet
 from mininet.node import Host, Node, OVSSwitch
 from mininet.util import quietRun
 
+from host_tools.child_signals import bound_node_stops, default_signals, give_children_default_signals
 from host_tools.servers import KEYDIR_PREFIX, Server, tunnel_mtu
 from topologies.base import CheckedController, TestbedSwitch
 from topologies.placers import FarmPlacer
@@ -85,6 +87,13 @@ class ServerMixin(RemoteMixin):
         if self.isRemote:
             self.sshcmd = self.server_ssh()
         super().startShell(*args, **kwargs)
+
+    @staticmethod
+    def _ignoreSignal():  # noqa: N802 - Mininet's name (RemoteMixin's preexec_fn for a server node's ssh)
+        """Its own process group (as RemoteMixin's), and the default signal dispositions: an ssh
+        client that inherited an ignored SIGHUP (nohup) outlived Mininet's SIGHUP (issue 42)."""
+        os.setpgrp()
+        default_signals()
 
     def _popen(self, cmd, sudo=True, tt=True, **params):
         if not self.isRemote:  # on the head: a plain node's Popen. RemoteMixin's os.setpgrp would make the
@@ -260,6 +269,7 @@ class ClusterNet(MininetCluster):
                  controller_port=OPENFLOW_PORT, lan_mtu=None, ssh_multiplex=False, head=False, **params):
         if not servers:
             raise ValueError("ClusterNet: no servers")
+        give_children_default_signals()  # under nohup: the ssh clients and shells must not inherit SIG_IGN
         self.cluster_servers = {s.name: s for s in servers}
         self.servers = ([HEAD] if head else []) + [s.name for s in servers]
         self.serverIP = {s.name: s.ip for s in servers} | ({HEAD: "127.0.0.1"} if head else {})
@@ -306,6 +316,7 @@ class ClusterNet(MininetCluster):
                     config.setdefault("controlPath", f"{self.control_dir}/%C")
 
     def stop(self):
+        bound_node_stops(self)  # every node's shell: SIGHUP, SIGTERM, SIGKILL, each wait bounded
         try:
             super().stop()
         finally:
