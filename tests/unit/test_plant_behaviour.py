@@ -103,9 +103,13 @@ def test_d_weak_grid_ordering():
     sc19, visc19 = run(sc_plant(), 1.84), run(comparison_visc_plant(), 1.84)
     print(f"\nV_pcc at 5 s / p-p over 4-5 s: SCR 2.04 none {none[0]:.3f}/{none[1]:.3f}, SC {sc[0]:.3f}/{sc[1]:.4f},"
           f" SDViSC {visc[0]:.3f}/{visc[1]:.4f}; SCR 1.84 SC {sc19[0]:.3f}/{sc19[1]:.3f}, SDViSC {visc19[0]:.3f}/{visc19[1]:.4f}")
-    assert none[1] > 0.1, "without support: a sustained oscillation at SCR 2.04"
+    # issue 39: with the plant controller after IEC 61400-27-1 (plant/wpp.py) the loss without support is a
+    # sag, not the former controller's limit cycle: the step's dip takes V_pcc under u_WPqdip 0.8, the
+    # controller freezes until 0.9, and the turbines sit at their current limit / Q limitation
+    assert none[1] < 0.02 and none[0] < 0.9, "without support: damped, out of the band at SCR 2.04"
     assert sc[1] < 0.02 and visc[1] < 0.02 and min(sc[0], visc[0]) > 0.9, "with either it settles in the band"
-    assert sc19[1] > 0.1 and visc19[1] < 0.02, "at 1.84 the SDViSC holds what the SC does not"
+    # at 1.84 both sag now (F7's step boundaries with the IEC controller: SC 2.01, SDViSC 1.96, --quick)
+    assert max(sc19[0], visc19[0]) < 0.9 and max(sc19[1], visc19[1]) < 0.02
 
 
 @pytest.mark.slow
@@ -124,5 +128,7 @@ def test_e_scr_1p51_three_vs_four_visc():
     for name, x in (("none", none), ("3 SDViSC", three), ("4 SDViSC", four)):
         print(f"\nSCR 1.51, {name}: V_pcc min {x[0]:.3f}, p-p over 4-5 s {x[1]:.4f}, V_pcc(5 s) {x[2]:.3f}", end="")
     assert none[2] < 0.9, "without SDViSCs the farm settles below the band"
-    assert four[1] < 0.02 and four[2] > 0.9, "four SDViSCs: back in the band"
+    # issue 39: with the plant controller after IEC 61400-27-1 the dip (V_pcc < u_WPqdip 0.8) freezes it and
+    # four SDViSCs no longer bring V_pcc back into the band (report F9: stable from five, --quick)
+    assert four[1] < 0.02 and four[2] > three[2], "four SDViSCs: damped, higher than three"
     assert four[0] > three[0], "four hold the voltage higher in the transient than three"
