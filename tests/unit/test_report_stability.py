@@ -73,15 +73,24 @@ def _state(t_away: float | None, v_end: float = 0.6) -> Stability:
     return Stability(v_end=v_end, ptp_last_s=0.0, v_min=0.5, finite=True, t_away=t_away)
 
 
-def test_f9d_judges_the_time_away_by_the_ten_per_cent_rule():
+def test_f9d_judges_the_time_away_at_wt1_cs1_by_the_ten_per_cent_rule():
+    """F9.d reads WT1_CS1 (turbine 0, the paper's caption), not the PCC: its terminal voltage leaves
+    the band for good at the time given; the PCC's state only goes beside it."""
     from report.exp_weak import _f9d
 
     others = {3: _state(None, 1.0)}
-    assert _f9d({0: _state(1.0), 3: _state(3.2)}, others).verdict == "yes"
-    assert _f9d({0: _state(1.0), 3: _state(2.2)}, others).verdict == "partly"  # 27 % early
-    assert _f9d({0: _state(1.0), 3: _state(1.02)}, others).verdict == "no"
-    never = _f9d({0: _state(1.0), 3: _state(None, 1.0)}, others)
-    assert never.verdict == "no" and never.measured["t_away_s"] is None and "does not leave" in never.testbed
+    s = {0: _state(1.0), 3: _state(None, 1.0)}  # the PCC stays in the band: it does not decide
+
+    def run3(t_away):
+        t = np.arange(0.0, 5.0, 0.01)
+        v = np.where(t < (t_away if t_away is not None else 99.0), 1.0, 0.7)
+        return {"t": t, "v_wt": np.c_[v, np.ones_like(v)]}
+
+    assert _f9d(s, others, run3(3.2)).verdict == "yes"
+    assert _f9d(s, others, run3(2.2)).verdict == "partly"  # 27 % early
+    assert _f9d(s, others, run3(1.02)).verdict == "no"
+    never = _f9d(s, others, run3(None))
+    assert never.verdict == "no" and never.measured["t_away_wt1_cs1_s"] is None and "does not leave" in never.testbed
 
 
 def test_f7c_yes_on_the_stable_boundary_partly_on_the_oscillation_only_one():
@@ -109,3 +118,13 @@ def test_a_boundary_above_the_unsupported_one_is_not_reproduced():
     assert _boundary_finding(Boundary(1.6, (1.59, 1.61)), damped, 1.58, "runs", below=1.55).verdict == "no"
     none = _boundary_finding(Boundary(None, None, note="no change"), damped, 1.58, "runs")
     assert none.verdict == "no" and "oscillation only: 1.500" in none.testbed
+
+
+def test_a_terminal_over_1p1_is_not_stable():
+    """Damped, V_pcc in the band, but a turbine terminal at 1.105 over the last second: not stable
+    (issue 39: no 'stable' case with a terminal above 1.1 p.u.); at 1.09 it is."""
+    t = np.arange(0.0, 5.0, 0.01)
+    v = np.ones_like(t)
+    for v_t, ok in ((1.105, False), (1.09, True)):
+        st = stability(t, v, 1.0, np.c_[np.full_like(t, v_t), np.ones_like(t)])
+        assert st.damped and st.in_band and st.stable is ok
