@@ -1,7 +1,8 @@
 """Remove everything a testbed run can leave behind (``sdvisc clean``; also run on every exit path).
 
-Targets: the project's processes (SDN app, plant, SDC, OWFCC, impairment elements, tcpdump started
-by a run, Mininet host shells), Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
+Targets: the processes a run started — found by the run's marker in their environment
+(:data:`RUN_MARKER`, in /proc/PID/environ), never by words in their command line: a user's
+``tcpdump -r results/x/sdvisc-capture-sdc1.pcap`` or an editor on that file is no run's — Open vSwitch bridges a run created (marked ``external-ids:sdvisc=1``, or named like
 the testbed's switches), and veth/tap devices named after them (``s1-eth2``, ``sub1``…), and the stand-in
 servers of the cluster tests (host_tools/servers.py: namespaces ``sdvisc-srv*``, their daemons, the LAN
 namespace ``sdvisc-lan``, the head's veth ``sdvlan0``, the servers' key directory — unless another live process owns them).
@@ -15,6 +16,7 @@ import re
 import signal
 import subprocess
 import time
+from collections.abc import Callable
 
 from host_tools import cpu_split, ovs_revalidation, servers
 from sdvisc.netns import command_line
@@ -25,9 +27,6 @@ PEER_NETNS = "sdvisc-peer"
 """The namespace of an emulated external GTNET-SKT peer (scenarios/external.py)."""
 LINK_RE = re.compile(rf"^(?:(?:{SWITCH_NAME}|imp\d+)(?:-eth\d+)?|sdvx\d+[md])$")  # imp<n>: impairment elements
 # (topologies.base); sdvx<n>m/d: the veths to external devices (veth_names)
-PROCESS_MARKERS = ("-m sdn_app", "-m plant.service", "-m sdc_unit.service", "-m sdc_unit.pilot", "-m owfcc.service",
-                   "-m impairment.element", "-m plant.gtnet_card",
-                   "sdvisc-capture", "mininet:")
 
 
 def veth_names(index: int) -> tuple[str, str]:
@@ -44,10 +43,27 @@ def _run(*args: str) -> str:
 
 
 RUN_MARKER = "SDVISC_RUN_PROCESS=1"
-"""In the environment of every process a run starts (scenarios.processes): the services a lab deploys
-(:data:`DEPLOYABLE`) are removed only with it, so a clean-up never stops an SDC, SDN app, OWFCC or card
-emulator that systemd or a user started on the same machine."""
-DEPLOYABLE = ("-m sdn_app", "-m sdc_unit.service", "-m owfcc.service", "-m plant.gtnet_card")
+"""In the environment of every process a run starts: the services (scenarios.processes) and, through
+:func:`mark_children`, everything else the run's process starts while it runs (Mininet's host shells,
+which ``mnexec`` starts with the parent's environment; the calibration's pilot SDC; tcpdump). The
+clean-up stops a process only with it, so it never stops an SDC, SDN app, OWFCC or card emulator that
+systemd or a user started on the same machine, nor a user's process that merely names a run's file."""
+
+
+def mark_children() -> Callable[[], None]:
+    """Put :data:`RUN_MARKER` in this process's environment, which every child inherits; returns
+    the function that takes it out again (a process that runs several things, e.g. a benchmark,
+    does not mark what it starts after the run)."""
+    key, value = RUN_MARKER.split("=")
+    before = os.environ.get(key)
+    os.environ[key] = value
+
+    def unmark() -> None:
+        if before is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = before
+    return unmark
 
 
 def _started_by_a_run(pid: str) -> bool:
@@ -58,19 +74,27 @@ def _started_by_a_run(pid: str) -> bool:
         return False
 
 
+def _ancestors() -> set[int]:
+    """This process and every process above it (a run's service may call the clean-up)."""
+    out, pid = set(), os.getpid()
+    while pid > 1 and pid not in out:
+        out.add(pid)
+        try:
+            with open(f"/proc/{pid}/status") as fh:
+                pid = int(next(line for line in fh if line.startswith("PPid:")).split()[1])
+        except (OSError, StopIteration, ValueError):
+            break
+    return out
+
+
 def project_processes() -> list[tuple[int, str]]:
-    """(pid, cmdline) of processes a run starts, except this process and its ancestors (a deployable
-    service only if a run started it: :data:`RUN_MARKER`)."""
-    own = {os.getpid(), os.getppid()} | servers.protected_pids()  # (another live process's servers)
+    """(pid, cmdline) of the processes a run started (:data:`RUN_MARKER` in their environment),
+    except this process and its ancestors, and the stand-in servers another live process uses."""
+    own = _ancestors() | servers.protected_pids()
     found = []
     for entry in os.listdir("/proc"):
-        if not entry.isdigit() or int(entry) in own:
-            continue
-        cmd = command_line(entry)
-        if cmd and any(marker in cmd for marker in PROCESS_MARKERS):
-            if any(marker in cmd for marker in DEPLOYABLE) and not _started_by_a_run(entry):
-                continue
-            found.append((int(entry), cmd))
+        if entry.isdigit() and int(entry) not in own and _started_by_a_run(entry):
+            found.append((int(entry), command_line(entry) or ""))
     return found
 
 

@@ -371,6 +371,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
         print(f"sdvisc: removing leftovers of an earlier run: {left}", file=sys.stderr)
         cleanup.clean()
     previous = {s: signal.signal(s, _raise_interrupt) for s in (signal.SIGTERM, signal.SIGHUP)}
+    unmark = cleanup.mark_children()  # every process the run starts (Mininet's shells too) is the clean-up's
     run = Run(scenario, out, quiet=quiet)
     run.calibrate_from, run.recalibrate = calibrate_from, recalibrate
     if cli:
@@ -390,6 +391,7 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
         finally:
             for s, handler in previous.items():
                 signal.signal(s, handler)
+            unmark()
             if run.session is not None:
                 run.session.settle_duration()  # summary.json covers the whole session
             summary = build_summary(run, completed=completed, source=source)

@@ -57,6 +57,8 @@ def assert_no_leftovers() -> None:
     assert left == {"processes": [], "bridges": [], "links": [], "netns": [], "cpu_split": [],
                     "switch_revalidation": [], "servers": []}, \
         f"a run left things behind: {left}"
-    # Mininet host shells are gone too (their network namespaces die with them)
-    shells = subprocess.run(["pgrep", "-f", "mininet:"], capture_output=True, text=True).stdout.split()
+    # Mininet host shells are gone too (their network namespaces die with them); a shell's command line
+    # is Mininet's own (a user's process that merely names "mininet:x" is no shell: issue 42)
+    shells = subprocess.run(["pgrep", "-f", "^bash --norc --noediting -is mininet:"], capture_output=True,
+                            text=True).stdout.split()
     assert not shells, f"Mininet host shells left: {shells}"

@@ -18,8 +18,24 @@ pytestmark = pytest.mark.network
 WT_IP, SDC_IP = "10.0.1.1", "10.0.0.21"
 
 
+def bystander() -> subprocess.Popen:
+    """A user's ``sleep 999`` whose command line names a run's capture and a Mininet shell (as
+    ``tcpdump -r results/x/sdvisc-capture-sdc1.pcap`` would): no run's process (issue 42)."""
+    proc = subprocess.Popen(["sleep 999 results/x/sdvisc-capture-x.pcap mininet:x", "999"], executable="sleep",
+                            start_new_session=True)
+    time.sleep(0.2)
+    assert proc.poll() is None
+    return proc
+
+
 def test_smoke_scenario_serves_wt1_1_only_after_the_request(tmp_path):
-    summary = run_scenario(ROOT / "scenarios" / "smoke.yaml", tmp_path, "--pcap")
+    user = bystander()
+    try:
+        summary = run_scenario(ROOT / "scenarios" / "smoke.yaml", tmp_path, "--pcap")
+        assert user.poll() is None, "the run's clean-up stopped a process that only named a run's files"
+    finally:
+        user.kill()
+        user.wait(timeout=10)
     assert summary["completed"] and summary["scenario"] == "smoke"
     ts = summary["step_s"]
     wt = summary["turbines"]["wt1_1"]
@@ -93,7 +109,13 @@ def test_run_refuses_a_malformed_scenario_without_touching_the_network(tmp_path)
 def test_clean_command_removes_a_crashed_runs_leftovers():
     subprocess.run(["ovs-vsctl", "add-br", "s7", "--", "set", "bridge", "s7", "datapath_type=netdev"], check=True)
     subprocess.run(["ip", "link", "add", "s7-eth1", "type", "veth", "peer", "name", "s8-eth1"], check=True)
-    res = sdvisc("clean")
+    user = bystander()
+    try:
+        res = sdvisc("clean")
+        assert user.poll() is None, "sdvisc clean stopped a process that only named a run's files"
+    finally:
+        user.kill()
+        user.wait(timeout=10)
     assert res.returncode == 0, res.stderr
     assert "removed 1 bridges" in res.stdout
     assert_no_leftovers()
