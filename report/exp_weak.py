@@ -3,7 +3,11 @@ SDViSC without and with virtual friction) and the number of SDViSCs needed at SC
 by bisection on the offline farm, not sampled. Stable (report/stability.py, as the paper means it):
 after the SCR change at 1 s the oscillation is damped AND V_pcc is back within 0.9–1.1 p.u.; the
 oscillation-only boundary (damped, wherever it settles) is searched and reported beside it. F9 also
-measures when V_pcc leaves the band for good with 3 SDViSCs (the paper: stable until ≈ 3 s)."""
+measures when WT1_CS1 (the caption's "Wind Turbine 1 in Cluster 1", turbine 0) leaves the band for good
+with 3 SDViSCs (the paper: stable until ≈ 3 s), the PCC beside it. Issue 39: a "stable" case also has
+no turbine terminal above 1.1 p.u. (report/stability.py); F7 also reports the slow-ramp boundary, the
+mechanism of each loss and a linearised check (report/f7_mechanism.py), and the step boundary with the
+plant controller as before issue 39 (plant/wpp.py legacy_params)."""
 
 from __future__ import annotations
 
@@ -142,13 +146,15 @@ def _linearised(config: str, ramp: dict, at: dict[str, float | None]) -> dict[st
         if not above:
             continue
         s = min(above)
-        state, q_wpp = snaps[s]
+        state, q_wpp, q_order = snaps[s]
         plant = _plant(CONFIGS[config])
         plant.set_scr(s)
+        plant.net.ensure()
         plant.tb.q_wpp[:] = q_wpp
         if len(state) != len(plant.state_real()):
             continue
-        out[label] = {"scr": s, **mech.jacobian_modes(plant, state)}
+        loop = mech.wpp_loop_modes(plant, q_wpp, q_order, state) if plant.wpp is not None else {}
+        out[label] = {"scr": s, **mech.jacobian_modes(plant, state), "wpp_loop": loop}
     return out
 
 
@@ -237,7 +243,9 @@ def _f7_second_look(ctx: Context, val, traces, t_end: float, xtol: float) -> dic
             "ramp_boundary_iec": ramp["IEC"]["loss_scr"], "ramp_boundary_legacy_wpp": ramp["legacy"]["loss_scr"],
             "ramp_rate_per_s": rate, "step_mechanism": step_mech, "ramp_mechanism": ramp_mech, "linearised": lin}
         lin_txt = "; ".join(f"at the {k} (ramp state at SCR {m['scr']:.2f}, plant controller held): "
-                            f"{mech.describe_modes(m)}" for k, m in lin.items())
+                            f"{mech.describe_modes(m)}"
+                            + (f"; {mech.describe_wpp_loop(m['wpp_loop'])}" if m.get("wpp_loop") else "")
+                            for k, m in lin.items())
         text[n] = (f"step boundary with the plant controller before issue 39: {_fmt(legacy.value)}; slow ramp "
                    f"({rate:g} SCR/s from {mech.RAMP_FROM:g}): IEC controller lost at {_fmt(ramp['IEC']['loss_scr'])}"
                    f" ({ramp_mech['IEC']}), legacy at {_fmt(ramp['legacy']['loss_scr'])} ({ramp_mech['legacy']}); "

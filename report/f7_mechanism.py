@@ -11,18 +11,20 @@ rate is slow against the slowest closed loop the farm has, the plant controller'
 stops landing on it. The loss is the first 1 s window (checked every 0.5 s) whose V_pcc is not
 "stable" (report/stability.py); the SCR reported is the one at the window's start.
 
-Linearisation: the Jacobian of the plant's right-hand side (``Plant.rhs_real``, central differences)
-at a state the ramp passed through (a quasi-static operating point), the plant controller's order
-held (its loop is sampled at 0.1 s and outside the right-hand side: the continuous plant, i.e. the
-turbines' current loops and PLLs, the ViSC, the SC, the network). Its least-damped oscillatory
-mode (0.5-20 Hz) says whether the continuous plant loses damping at the boundary.
+Linearisation, two parts at a state the ramp passed through (a quasi-static operating point; its
+|f(x)| is reported — near the loss it is no equilibrium any more): (1) the Jacobian of the plant's
+right-hand side (``Plant.rhs_real``, central differences) with the plant controller's order held
+(its loop is sampled at 0.1 s and outside the right-hand side): the continuous plant (the turbines'
+current loops and PLLs, the ViSC, the SC, the network); its least-damped oscillatory mode (0.5-20
+Hz) says whether that loses damping at the boundary; (2) the sampled plant controller's own loop
+(``wpp_loop_modes``: a discrete model, the farm as its static gain dV/dq from the load flow).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from report.stability import LAST_S, PTP_DAMPED, stability
+from report.stability import LAST_S, PTP_DAMPED, V_NORMAL, stability
 
 T_EVENT = 1.0
 RAMP_FROM = 4.0  # SCR the ramp starts from (above every step boundary of the IEC controller)
@@ -30,6 +32,7 @@ RAMP_START = 3.0  # s: the ramp starts (2 s after the step to RAMP_FROM)
 RAMP_DT = 0.1  # s: the staircase's step
 RAMP_FLOOR = 1.0  # the ramp stops here
 AFTER_LOSS_S = 2.5  # s: run on after the loss, to show what the loss is
+FAST_HZ = 10.0  # Hz: an oscillation faster than this around a sagged V_pcc is the converters' limit chatter
 OSC_BAND_HZ = (0.5, 20.0)  # oscillatory modes considered in the linearised check
 
 
@@ -43,7 +46,7 @@ def ramp_run(plant, rate: float, snapshot_scrs=()) -> dict:
     """Run ``plant`` down the ramp until it is no longer stable (or RAMP_FLOOR): the record (every 10th
     step) with ``scr`` per sample, ``loss_scr`` (None: stable to the floor), ``loss_t`` and the plant
     states at the SCRs ``snapshot_scrs`` passed on the way (``snapshots``: {scr: (state, the plant
-    controller's per-turbine orders)})."""
+    controller's per-turbine applied orders, its order at the turbines)})."""
     rec: dict[str, list] = {}
     snaps: dict[float, tuple[np.ndarray, np.ndarray]] = {}
     want = sorted(snapshot_scrs, reverse=True)
@@ -64,7 +67,8 @@ def ramp_run(plant, rate: float, snapshot_scrs=()) -> dict:
             s = scr_at(plant.t + 1e-9)
             if s != scr:
                 while want and scr <= want[0] + 1e-9 and loss_t is None:  # settled RAMP_DT at scr
-                    snaps[want.pop(0)] = (plant.state_real().copy(), plant.tb.q_wpp.copy())
+                    snaps[want.pop(0)] = (plant.state_real().copy(), plant.tb.q_wpp.copy(),
+                                          None if plant.wpp is None else plant.wpp.q_turbines)
                 scr = s
                 plant.set_scr(s)
             r = plant.run_offline(t_next, record_every=10)
@@ -116,6 +120,9 @@ def mechanism(t: np.ndarray, v: np.ndarray, t_from: float, v_wt: np.ndarray | No
     ptp1 = float(np.ptp(v[last]))
     ptp0 = float(np.ptp(v[before])) if np.any(before) else ptp1
     f = dominant_hz(t[last | before], v[last | before])
+    if ptp1 >= PTP_DAMPED and f > FAST_HZ and not V_NORMAL[0] <= np.mean(v[last]) <= V_NORMAL[1]:
+        return (f"sag out of the band (mean V_pcc {np.mean(v[last]):.2f}) with a {f:.0f} Hz chatter of "
+                f"p-p {ptp1:.3f} (the converters at their current limit / FRT)")
     if ptp1 >= PTP_DAMPED:
         kind = "growing oscillation (loss of damping)" if ptp1 > 1.3 * ptp0 else "limit cycle (sustained, bounded)"
         return f"{kind}, {f:.1f} Hz, V_pcc {np.min(v[last]):.2f}-{np.max(v[last]):.2f}"
@@ -162,3 +169,53 @@ def describe_modes(m: dict) -> str:
         return "no oscillatory mode in the band"
     return (f"least-damped mode {m['mode_hz']:.2f} Hz, ζ = {m['damping_ratio']:.3f} (Re {m['mode_real']:.2f}/s); "
             f"largest Re of all modes {m['max_real']:.3f}/s; |f(x)| at the point {m['residual']:.1e}")
+
+
+def wpp_loop_modes(plant, q_applied: np.ndarray, q_order: float | None, state: np.ndarray) -> dict:
+    """The sampled plant controller's own loop, linearised around an operating point of ``plant``
+    (its SCR and the applied orders ``q_applied``): the farm as a static gain G = d|V_pcc|/dq (the
+    load flow, every farm turbine's order moved together: the turbines' current loops and the
+    network are fast against the controller's 0.1 s cycle), cut by the share c of turbines not held
+    by their Q limitation (for them the order does not reach the grid: the loop opens). Per cycle
+    (plant/wpp.py: the measurement at cycle k sees the order of cycle k-2 — one cycle of
+    communication delay plus the hold — the filters of 0.01 s are settled within a cycle):
+        e_k = -c (G + droop) y_{k-2},  x_k = x_{k-1} + K_i T_s e_k,  y_k = a y_{k-1} + (1 - a)(x_k + K_p e_k)
+    with a = exp(-T_s/T_xfv). Returns G, c, the largest |z| and its frequency; |z| > 1: the
+    controller's loop is unstable at this operating point."""
+    wp = plant.params.wpp
+    mask = plant._wpp_mask
+    base = plant.tb.q_wpp.copy()
+    dq = 0.01
+    v = []
+    keep = plant.state_real().copy()
+    plant.set_state_real(state)
+    start = plant._full_v(plant._eval_cached()[2])  # the load flow starts from the operating point's voltages
+    plant.set_state_real(keep)
+    try:
+        for sign in (1.0, -1.0):
+            plant.tb.q_wpp[:] = base + sign * dq * mask
+            v.append(abs(plant._load_flow(start)[2][plant.net.pcc]))
+    except RuntimeError:
+        return {}
+    finally:
+        plant.tb.q_wpp[:] = base
+    g = (v[0] - v[1]) / (2 * dq)
+    free = q_applied[mask] >= (q_order if q_order is not None else -np.inf) - 1e-4
+    c = float(np.mean(free)) if np.any(mask) else 0.0
+    t_s = wp.period_s
+    a = float(np.exp(-t_s / wp.t_xfv_s)) if wp.t_xfv_s > 0 else 0.0
+    k = c * (g + wp.droop)
+    # state [x_{k-1}, y_{k-1}, y_{k-2}] -> [x_k, y_k, y_{k-1}]
+    m = np.array([[1.0, 0.0, -wp.k_i * t_s * k],
+                  [1.0 - a, a, -(1.0 - a) * (wp.k_i * t_s + wp.k_p) * k],
+                  [0.0, 1.0, 0.0]])
+    z = np.linalg.eigvals(m)
+    zm = z[np.argmax(np.abs(z))]
+    return {"gain_dv_dq": float(g), "share_free": c, "z_max": float(abs(zm)),
+            "z_hz": float(abs(np.angle(zm)) / (2 * np.pi * t_s))}
+
+
+def describe_wpp_loop(m: dict) -> str:
+    return (f"plant-controller loop: dV/dq {m['gain_dv_dq']:.3f}, {100 * m['share_free']:.0f} % of turbines "
+            f"free of their Q limitation, largest |z| {m['z_max']:.3f} at {m['z_hz']:.2f} Hz "
+            f"({'unstable' if m['z_max'] > 1 + 1e-9 else 'loop open: integrator only' if m['share_free'] == 0 else 'stable'})")
