@@ -6,7 +6,7 @@ oscillation-only boundary (damped, wherever it settles) is searched and reported
 measures when WT1_CS1 (the caption's "Wind Turbine 1 in Cluster 1", turbine 0) leaves the band for good
 with 3 SDViSCs (the paper: stable until ≈ 3 s), the PCC beside it. Issue 39: a "stable" case also has
 no turbine terminal above 1.1 p.u. (report/stability.py); F7 also reports the slow-ramp boundary, the
-mechanism of each loss and a linearised check (report/f7_mechanism.py), and the step boundary with the
+mechanism of each loss and a linearised check (report/f7_mechanism.py, report/f7_second_look.py), and the step boundary with the
 plant controller as before issue 39 (plant/wpp.py legacy_params)."""
 
 from __future__ import annotations
@@ -18,7 +18,6 @@ import numpy as np
 from plant.cases import comparison_visc_plant
 from plant.static_limit import static_limit
 from plant.wpp import legacy_params
-from report import f7_mechanism as mech
 from report import figures, net_arrangement
 from report.boundary import Boundary, smallest_sufficient, threshold
 from report.plantcases import bare_plant, sc_plant, visc_plant
@@ -130,34 +129,6 @@ def search_boundary(config: str, t_end: float, xtol: float, criterion: str = "st
     return b, {x: _run_at(config, x, t_end, wpp) for x in (b.bracket or ())}
 
 
-@functools.cache
-def ramp_boundary(config: str, rate: float, wpp: str = "IEC") -> dict:
-    """The slow-ramp (quasi-static) run of ``config`` (report/f7_mechanism.py): its loss SCR, the
-    record, and the states it passed every 0.1 of SCR (for the linearised check)."""
-    return mech.ramp_run(_plant(CONFIGS[config], wpp), rate, np.round(np.arange(mech.RAMP_FROM, 1.0, -0.1), 3))
-
-
-def _linearised(config: str, ramp: dict, at: dict[str, float | None]) -> dict[str, dict]:
-    """The Jacobian's least-damped mode at the ramp's states nearest above each SCR of ``at``."""
-    out = {}
-    snaps = ramp["snapshots"]
-    for label, scr in at.items():
-        above = [s for s in snaps if scr is not None and s >= scr - 1e-9]
-        if not above:
-            continue
-        s = min(above)
-        state, q_wpp, q_order = snaps[s]
-        plant = _plant(CONFIGS[config])
-        plant.set_scr(s)
-        plant.net.ensure()
-        plant.tb.q_wpp[:] = q_wpp
-        if len(state) != len(plant.state_real()):
-            continue
-        loop = mech.wpp_loop_modes(plant, q_wpp, q_order, state) if plant.wpp is not None else {}
-        out[label] = {"scr": s, **mech.jacobian_modes(plant, state), "wpp_loop": loop}
-    return out
-
-
 def _fmt(x) -> str:
     return f"none in [{SCR_RANGE[0]:g}, {SCR_RANGE[1]:g}]" if x is None else f"{x:.3f}"
 
@@ -199,7 +170,8 @@ def _f7(ctx: Context) -> dict[str, Finding]:
             ctx.numbers[f"{criterion} boundary {name}"] = {"boundary_scr": b.value, "bracket": b.bracket,
                                                            "evaluations": b.evaluations, "note": b.note}
     val = {n: {c: b.value for c, b in bs.items()} for n, bs in bounds.items()}
-    second = _f7_second_look(ctx, val, traces, t_end, xtol)
+    from report.f7_second_look import second_look  # it reads this module's cases and searches
+    second = second_look(ctx, val, traces, t_end, xtol)
     static = {n: static_limit(CONFIGS[n]()) for n in F7_CONFIGS}  # the load-flow nose of each case
     ctx.numbers["static transfer limit"] = static
     ev = {n: f"static transfer limit (plant/static_limit.py) SCR {static[n]:.2f}: "
@@ -218,63 +190,6 @@ def _f7(ctx: Context) -> dict[str, Finding]:
                         "boundaries can come out higher than in the full report." if ctx.quick else ""))
     _f7_figure(ctx, traces)
     return found
-
-
-def _f7_second_look(ctx: Context, val, traces, t_end: float, xtol: float) -> dict[str, str]:
-    """Per case: the step boundary with the plant controller as before issue 39, the slow-ramp
-    boundary (IEC and legacy controller), the mechanism of each loss and the linearised damping of
-    the continuous plant at the step and ramp boundaries (report/f7_mechanism.py); the text for the
-    findings, the numbers and the figure."""
-    rate = mech.ramp_settings(ctx.quick)
-    text, ramps = {}, {}
-    for n in F7_CONFIGS:
-        legacy, legacy_runs = search_boundary(n, t_end, xtol, "stable", "legacy")
-        ramp = {w: ramp_boundary(n, rate, w) for w in WPP_VARIANTS}
-        ramps[n] = ramp
-        lo = min(traces[n]["stable"]) if traces[n]["stable"] else None
-        step_mech = "—" if lo is None else mech.mechanism(*_tv(traces[n]["stable"][lo]), T_EVENT + 1.0)
-        ramp_mech = {w: "stable to the floor" if r["loss_t"] is None else
-                     mech.mechanism(r["t"], r["v_pcc"], r["loss_t"] + LAST_S, r.get("v_wt")) for w, r in ramp.items()}
-        lin = _linearised(n, ramp["IEC"], {"step boundary": val[n]["stable"],
-                                           "ramp boundary": None if ramp["IEC"]["loss_scr"] is None
-                                           else ramp["IEC"]["loss_scr"] + 0.05})
-        ctx.numbers[f"F7 second look {n}"] = {
-            "step_boundary_iec": val[n]["stable"], "step_boundary_legacy_wpp": legacy.value,
-            "ramp_boundary_iec": ramp["IEC"]["loss_scr"], "ramp_boundary_legacy_wpp": ramp["legacy"]["loss_scr"],
-            "ramp_rate_per_s": rate, "step_mechanism": step_mech, "ramp_mechanism": ramp_mech, "linearised": lin}
-        lin_txt = "; ".join(f"at the {k} (ramp state at SCR {m['scr']:.2f}, plant controller held): "
-                            f"{mech.describe_modes(m)}"
-                            + (f"; {mech.describe_wpp_loop(m['wpp_loop'])}" if m.get("wpp_loop") else "")
-                            for k, m in lin.items())
-        text[n] = (f"step boundary with the plant controller before issue 39: {_fmt(legacy.value)}; slow ramp "
-                   f"({rate:g} SCR/s from {mech.RAMP_FROM:g}): IEC controller lost at {_fmt(ramp['IEC']['loss_scr'])}"
-                   f" ({ramp_mech['IEC']}), legacy at {_fmt(ramp['legacy']['loss_scr'])} ({ramp_mech['legacy']}); "
-                   f"below the step boundary: {step_mech}; linearised: {lin_txt or 'no ramp state'}")
-    _f7_ramp_figure(ctx, ramps, traces)
-    return text
-
-
-def _tv(r: dict) -> tuple:
-    return r["t"], r["v_pcc"]
-
-
-def _f7_ramp_figure(ctx: Context, ramps: dict[str, dict[str, dict]], traces) -> None:
-    fig, axes = figures.new(len(ramps), height_per_row=2.0, sharex=False)
-    for ax, (name, by_wpp) in zip(axes[:, 0], ramps.items()):
-        for w, style in zip(WPP_VARIANTS, ("-", "--")):
-            r = by_wpp[w]
-            loss = "stable to the floor" if r["loss_scr"] is None else f"lost at SCR {r['loss_scr']:.3f}"
-            ax.plot(r["scr"], r["v_pcc"], ls=style, lw=0.7, label=f"{name}, {w} plant controller, ramp: {loss}")
-        for v in V_NORMAL:
-            ax.axhline(v, color="0.5", ls=":", lw=0.8)
-        ax.set_xlim(mech.RAMP_FROM, 1.0)
-        ax.set_ylabel("|V_pcc| [p.u.]")
-        ax.legend(fontsize=6, loc="lower left")
-    axes[-1, 0].set_xlabel("SCR along the slow ramp (time runs right to left); after the loss the run goes on "
-                           f"{mech.AFTER_LOSS_S:g} s at that SCR to show what the loss is", fontsize=8)
-    figures.save(ctx, fig, "f7_ramp_boundaries", "F7's quasi-static boundaries: the SCR lowered slowly "
-                 "(report/f7_mechanism.py); the step boundaries are in f7_weak_grid_boundaries.",
-                 prefix="Testbed (issue 39): ")
 
 
 def _above(boundary: float | None, static: float) -> bool:
