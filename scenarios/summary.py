@@ -334,7 +334,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
                  for p in sorted(out.glob(pattern)) if not p.stem.endswith("_config")},
         "processes_exited_early": {n: c for n, c in run.exited_early.items() if n not in run.killed},
         "processes_killed": sorted(run.killed),
-        "openflow": sdn.get("openflow", {}),
+        "openflow": openflow_section(sdn),
         "controllers": {f"instance{st.get('instance', 1)}": {"role": st.get("role"), "generation": st.get("generation"),
                                                             "openflow": st.get("openflow", {})} for st in sdn_states},
         "sdn_counters": sdn.get("counters", {}),
@@ -350,3 +350,22 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "machine": {"python": platform.python_version(), "platform": platform.platform(),
                     "written": time.strftime("%Y-%m-%dT%H:%M:%S%z")},
     }
+
+
+def openflow_section(sdn: dict) -> dict:
+    """The SDN app's controller↔switch message counts, and apart from them what the user asks about:
+    ``by_cause`` (flow-mods, packet-outs and other messages a request, a switch's connection, … cost;
+    ``per_request``: those of the requests divided by their number) and ``keepalive`` (echo requests
+    and connections: they grow with wall time, i.e. with the time scale, not with what happens)."""
+    of, counters = dict(sdn.get("openflow", {})), sdn.get("counters", {})
+    by_cause: dict[str, dict] = {}
+    for key, n in counters.items():
+        if key.startswith("of:") and key.count(":") == 2:
+            _, cause, kind = key.split(":")
+            by_cause.setdefault(cause, {})[kind] = n
+    requests = by_cause.get("request", {}).pop("requests", 0)
+    if requests:
+        of["per_request"] = {kind: round(n / requests, 2) for kind, n in by_cause["request"].items()} | {"requests": requests}
+    of["by_cause"] = by_cause
+    of["keepalive"] = {"echo_requests_rx": of.get("rx_echo_keepalive", 0), "switch_connects": counters.get("switch_connects", 0)}
+    return of

@@ -84,7 +84,19 @@ class Controller:
         """A switch connected: base flows, plus the flows of any active path through it."""
         self.connected.add(dpid)
         self.state.event(now, "switch_up", switch=self.state.switch_by_dpid.get(dpid, hex(dpid)))
-        return list(fl.base_flows(dpid, self.config.controller_vip)) + self._intake_flows(dpid) + self.routing.flows_on(dpid)
+        self.counters["switch_connects"] += 1
+        return self._count("on_connect", list(fl.base_flows(dpid, self.config.controller_vip)) + self._intake_flows(dpid)
+                           + self.routing.flows_on(dpid))
+
+    def _count(self, cause: str, actions: list) -> list:
+        """Count the switch messages of one decision by its cause (summary.json ``openflow.by_cause``:
+        what a request, a connection, a DR costs, apart from keepalives): ``of:<cause>:<kind>``,
+        kind ``flow_mods``, ``packet_outs`` or ``other`` (groups, barriers)."""
+        for a in actions:
+            kind = ("flow_mods" if isinstance(a, (fl.FlowAdd, fl.FlowDelete)) else
+                    "packet_outs" if isinstance(a, fl.PacketOut) else "other")
+            self.counters[f"of:{cause}:{kind}"] += 1
+        return actions
 
     def _intake_flows(self, dpid: int) -> list:
         """With an intake socket: the flows that forward this switch's hosts' datagrams to it."""
@@ -238,6 +250,9 @@ class Controller:
             return []
         self.guard.note_arrival(now)
         try:
+            if msg.type == wire.MsgType.REQUEST:
+                self.counters["of:request:requests"] += 1
+                return self._count("request", handler(msg, src_ip, src_mac, now, where))
             return handler(msg, src_ip, src_mac, now, where)
         except (ValueError, KeyError, TypeError) as exc:  # one bad message never stops the app
             counters["drop_bad_value"] += 1

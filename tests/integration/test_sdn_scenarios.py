@@ -87,8 +87,13 @@ def test_plug_and_play_packets_only_after_each_request(tmp_path):
     # no other turbine of the 50 ever exchanged a packet with an SDC
     assert s["topology"]["hosts"] == 53
     assert s["tables"]["T2"]["wt4_1"] == "1/1" and s["tables"]["T2"]["wt2_1"] == "0/1"
-    # event-based: no polling — controller-to-switch traffic is a handful of messages per request
-    assert s["openflow"]["tx_total"] < 100
+    # event-based: no polling — each request costs the switches a handful of messages, whatever the
+    # run's wall time (farm compact: 6 flow-mods, 3 packet-outs, 3 other on average; issue 42: the total,
+    # keepalives and reconnections included, grew with the time scale and failed under load)
+    per = s["openflow"]["per_request"]
+    assert per["requests"] == 2
+    assert per["flow_mods"] <= 10 and per.get("packet_outs", 0) <= 5 and per.get("other", 0) <= 5, per
+    assert set(s["openflow"]["keepalive"]) == {"echo_requests_rx", "switch_connects"}  # reported apart
 
 
 def test_cli_link_down_triggers_the_same_recovery(tmp_path):
