@@ -32,6 +32,7 @@ RAMP_START = 3.0  # s: the ramp starts (2 s after the step to RAMP_FROM)
 RAMP_DT = 0.1  # s: the staircase's step
 RAMP_FLOOR = 1.0  # the ramp stops here
 AFTER_LOSS_S = 2.5  # s: run on after the loss, to show what the loss is
+GAIN_AFTER_S = 0.2  # s: the farm's response to the plant controller's order read this long after a step
 FAST_HZ = 10.0  # Hz: an oscillation faster than this around a sagged V_pcc is the converters' limit chatter
 OSC_BAND_HZ = (0.5, 20.0)  # oscillatory modes considered in the linearised check
 
@@ -171,46 +172,59 @@ def describe_modes(m: dict) -> str:
             f"largest Re of all modes {m['max_real']:.3f}/s; |f(x)| at the point {m['residual']:.1e}")
 
 
+def wpp_loop_poles(wp, k: float) -> np.ndarray:
+    """Poles (z) of the sampled plant controller ``wp`` (WppParams) closed over a farm of loop gain
+    ``k`` = c (G + droop) (see :func:`wpp_loop_modes`). The measurement at cycle k sees the order of
+    cycle k - n, n = floor(T_comm/T_s) + 1 (plant/wpp.py: the order is delivered T_comm after its
+    cycle, after that call's measurement): e_k = -k y_{k-n}, x_k = x_{k-1} + K_i T_s e_k,
+    y_k = a y_{k-1} + (1 - a)(x_k + K_p e_k), a = exp(-T_s/T_xfv); state [x_{k-1}, y_{k-1} .. y_{k-n}]."""
+    t_s = wp.period_s
+    a = float(np.exp(-t_s / wp.t_xfv_s)) if wp.t_xfv_s > 0 else 0.0
+    n = int(np.floor(wp.comm_delay_s / t_s + 1e-9)) + 1
+    m = np.zeros((n + 1, n + 1))
+    m[0, 0], m[0, n] = 1.0, -wp.k_i * t_s * k  # x_k
+    m[1, 0], m[1, 1] = 1.0 - a, a  # y_k
+    m[1, n] += -(1.0 - a) * (wp.k_i * t_s + wp.k_p) * k
+    for j in range(2, n + 1):  # the shift register y_{k-j+1} <- y_{k-j+1}
+        m[j, j - 1] = 1.0
+    return np.linalg.eigvals(m)
+
+
 def wpp_loop_modes(plant, q_applied: np.ndarray, q_order: float | None, state: np.ndarray) -> dict:
     """The sampled plant controller's own loop, linearised around an operating point of ``plant``
-    (its SCR and the applied orders ``q_applied``): the farm as a static gain G = d|V_pcc|/dq (the
-    load flow, every farm turbine's order moved together: the turbines' current loops and the
-    network are fast against the controller's 0.1 s cycle), cut by the share c of turbines not held
-    by their Q limitation (for them the order does not reach the grid: the loop opens). Per cycle
-    (plant/wpp.py: the measurement at cycle k sees the order of cycle k-2 — one cycle of
-    communication delay plus the hold — the filters of 0.01 s are settled within a cycle):
-        e_k = -c (G + droop) y_{k-2},  x_k = x_{k-1} + K_i T_s e_k,  y_k = a y_{k-1} + (1 - a)(x_k + K_p e_k)
-    with a = exp(-T_s/T_xfv). Returns G, c, the largest |z| and its frequency; |z| > 1: the
+    (its SCR and the applied orders ``q_applied``): the farm as a gain G = d|V_pcc|/dq (the plant
+    run GAIN_AFTER_S from ``state`` with every farm turbine's order moved by ±0.01 together, the
+    controller out: the turbines' current loops, PLLs and the network settle within a cycle of 0.1
+    s; central difference, so a slow drift of the state cancels), cut by the share c of turbines not held
+    by their Q limitation (for them the order does not reach the grid: the loop opens); the
+    controller's cycle as :func:`wpp_loop_poles` (the filters of 0.01 s settle within a cycle). Returns G, c, the largest |z| and its frequency; |z| > 1: the
     controller's loop is unstable at this operating point."""
     wp = plant.params.wpp
     mask = plant._wpp_mask
     base = plant.tb.q_wpp.copy()
     dq = 0.01
     v = []
-    keep = plant.state_real().copy()
-    plant.set_state_real(state)
-    start = plant._full_v(plant._eval_cached()[2])  # the load flow starts from the operating point's voltages
-    plant.set_state_real(keep)
+    controller, k0 = plant.wpp, plant.k
+    plant.wpp = None  # the order held at base +- dq (the Q limitation is the share c below)
     try:
         for sign in (1.0, -1.0):
+            plant.set_state_real(state)
+            plant.k = k0
+            plant.tb.slow = None
             plant.tb.q_wpp[:] = base + sign * dq * mask
-            v.append(abs(plant._load_flow(start)[2][plant.net.pcc]))
-    except RuntimeError:
-        return {}
+            with np.errstate(all="ignore"):
+                r = plant.run_offline(plant.t + GAIN_AFTER_S, record_every=10)
+            v.append(float(np.mean(r["v_pcc"][r["t"] >= r["t"][-1] - 0.05])))
     finally:
+        plant.wpp, plant.k = controller, k0
         plant.tb.q_wpp[:] = base
+        plant.set_state_real(state)
     g = (v[0] - v[1]) / (2 * dq)
     free = q_applied[mask] >= (q_order if q_order is not None else -np.inf) - 1e-4
     c = float(np.mean(free)) if np.any(mask) else 0.0
-    t_s = wp.period_s
-    a = float(np.exp(-t_s / wp.t_xfv_s)) if wp.t_xfv_s > 0 else 0.0
-    k = c * (g + wp.droop)
-    # state [x_{k-1}, y_{k-1}, y_{k-2}] -> [x_k, y_k, y_{k-1}]
-    m = np.array([[1.0, 0.0, -wp.k_i * t_s * k],
-                  [1.0 - a, a, -(1.0 - a) * (wp.k_i * t_s + wp.k_p) * k],
-                  [0.0, 1.0, 0.0]])
-    z = np.linalg.eigvals(m)
+    z = wpp_loop_poles(wp, c * (g + wp.droop))
     zm = z[np.argmax(np.abs(z))]
+    t_s = wp.period_s
     return {"gain_dv_dq": float(g), "share_free": c, "z_max": float(abs(zm)),
             "z_hz": float(abs(np.angle(zm)) / (2 * np.pi * t_s))}
 

@@ -99,3 +99,18 @@ def test_reactive_power_mode_goes_to_its_reference():
     c.settle_at(0.0, 0.0, v_pcc=1.0)
     run(c, 0.01, 10.0, lambda _t: 1.0)
     assert c.q_turbines == pytest.approx(0.2, abs=1e-6)
+
+
+def test_sampled_loop_poles_against_the_closed_form():
+    """Integral only, no lag, the order seen two cycles late (T_comm = T_s): x_k = x_{k-1} - K_i T_s k
+    x_{k-2}, i.e. z^2 - z + K_i T_s k = 0: complex poles of modulus sqrt(K_i T_s k), on the unit circle
+    at K_i T_s k = 1 (60 degrees per cycle: 1/(6 T_s) Hz); with T_comm = 0 it is z = 1 - K_i T_s k."""
+    from report.f7_mechanism import wpp_loop_poles
+
+    for k in (0.5, 1.0, 1.3):
+        z = wpp_loop_poles(bare(t_xfv_s=0.0, comm_delay_s=0.1, k_i=10.0), k)
+        assert np.max(np.abs(z)) == pytest.approx(math.sqrt(10.0 * 0.1 * k), rel=1e-9)  # complex: K_i T_s k > 1/4
+    z = wpp_loop_poles(bare(t_xfv_s=0.0, comm_delay_s=0.1, k_i=10.0), 1.0)
+    assert np.max(np.abs(np.angle(z))) == pytest.approx(math.pi / 3, rel=1e-9)
+    z = wpp_loop_poles(bare(t_xfv_s=0.0, comm_delay_s=0.0, k_i=10.0), 0.5)
+    assert np.max(np.abs(z)) == pytest.approx(1.0 - 10.0 * 0.1 * 0.5, rel=1e-9)
