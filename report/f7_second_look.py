@@ -50,7 +50,7 @@ def second_look(ctx: Context, val, traces, t_end: float, xtol: float) -> dict[st
     the continuous plant at the step and ramp boundaries (report/f7_mechanism.py); the text for the
     findings, the numbers and the figure."""
     rate = mech.ramp_settings(ctx.quick)
-    text, ramps = {}, {}
+    text, ramps, mechs = {}, {}, {}
     for n in F7_CONFIGS:
         legacy, legacy_runs = search_boundary(n, t_end, xtol, "stable", "legacy")
         ramp = {w: ramp_boundary(n, rate, w) for w in WPP_VARIANTS}
@@ -59,6 +59,7 @@ def second_look(ctx: Context, val, traces, t_end: float, xtol: float) -> dict[st
         step_mech = "—" if lo is None else mech.mechanism(*_tv(traces[n]["stable"][lo]), T_EVENT + 1.0)
         ramp_mech = {w: "stable to the floor" if r["loss_t"] is None else
                      mech.mechanism(r["t"], r["v_pcc"], r["loss_t"] + LAST_S, r.get("v_wt")) for w, r in ramp.items()}
+        mechs[n] = (step_mech, ramp_mech, val[n]["stable"], legacy.value)
         lin = _linearised(n, ramp["IEC"], {"step boundary": val[n]["stable"],
                                            "ramp boundary": None if ramp["IEC"]["loss_scr"] is None
                                            else ramp["IEC"]["loss_scr"] + 0.05})
@@ -74,7 +75,7 @@ def second_look(ctx: Context, val, traces, t_end: float, xtol: float) -> dict[st
                    f"({rate:g} SCR/s from {mech.RAMP_FROM:g}): IEC controller lost at {_fmt(ramp['IEC']['loss_scr'])}"
                    f" ({ramp_mech['IEC']}), legacy at {_fmt(ramp['legacy']['loss_scr'])} ({ramp_mech['legacy']}); "
                    f"below the step boundary: {step_mech}; linearised: {lin_txt or 'no ramp state'}")
-    _f7_ramp_figure(ctx, ramps, traces)
+    _f7_ramp_figure(ctx, ramps, mechs)
     return text
 
 
@@ -82,13 +83,20 @@ def _tv(r: dict) -> tuple:
     return r["t"], r["v_pcc"]
 
 
-def _f7_ramp_figure(ctx: Context, ramps: dict[str, dict[str, dict]], traces) -> None:
+def _f7_ramp_figure(ctx: Context, ramps: dict[str, dict[str, dict]], mechs: dict[str, tuple]) -> None:
     fig, axes = figures.new(len(ramps), height_per_row=2.0, sharex=False)
     for ax, (name, by_wpp) in zip(axes[:, 0], ramps.items()):
         for w, style in zip(WPP_VARIANTS, ("-", "--")):
             r = by_wpp[w]
             loss = "stable to the floor" if r["loss_scr"] is None else f"lost at SCR {r['loss_scr']:.3f}"
-            ax.plot(r["scr"], r["v_pcc"], ls=style, lw=0.7, label=f"{name}, {w} plant controller, ramp: {loss}")
+            ax.plot(r["scr"], r["v_pcc"], ls=style, lw=0.7,
+                    label=f"{name}, {w} plant controller, ramp: {loss}: {mechs[name][1][w]}")
+        step_mech, _, step_iec, step_legacy = mechs[name]
+        for x, c in ((step_iec, "C3"), (step_legacy, "C7")):
+            if x is not None:
+                ax.axvline(x, color=c, ls="-.", lw=0.8)
+        ax.set_title(f"step boundary (dash-dot) IEC {_fmt(step_iec)}, legacy {_fmt(step_legacy)}; below the IEC "
+                     f"one after the step: {step_mech}", fontsize=7)
         for v in V_NORMAL:
             ax.axhline(v, color="0.5", ls=":", lw=0.8)
         ax.set_xlim(mech.RAMP_FROM, 1.0)
