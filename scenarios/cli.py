@@ -131,7 +131,9 @@ def _print_result(summary: dict, out: Path) -> None:
         d = t["one_way_delay_ms"]["meas_to_sdc"] or {}
         one_way = f"one-way p50={d['p50']:.2f} ms" if d.get("p50") is not None else "one-way: not stamped"
         print(f"  {name}: meas_tx={p['meas_tx']} meas_rx_sdc={p['meas_rx_sdc']} ctrl_tx_sdc={p['ctrl_tx_sdc']} "
-              f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  {one_way}")
+              f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  {one_way}{_by_sdc(t, summary)}")
+    for sdc, why in summary.get("sdc_stats_missing", {}).items():
+        print(f"sdvisc: note: {sdc} left no statistics ({why}): meas_rx_sdc and ctrl_tx_sdc leave out what it served")
     for r in summary["recoveries"]:
         took = f"{r['recovery_ms']:.1f} ms" if r['recovery_ms'] is not None else "not restored"
         print(f"  recovery {r['wt']} after {r['fault']['type']} ({r['cause']}): {took}")
@@ -152,6 +154,14 @@ def _print_result(summary: dict, out: Path) -> None:
         print(f"sdvisc: time scale {cal['time_scale']:g} ({'from the cache' if cal['source'] == 'cache' else 'calibrated'}) "
               "held: every turbine's answers within one sample for >= 99 % and under 1 % of the steps late")
     print(f"sdvisc: results in {out}/summary.json, events.jsonl, timeseries.csv")
+
+
+def _by_sdc(turbine: dict, summary: dict) -> str:
+    """`` [sdc1 a/b, sdc2 c/d]`` (MEAS received / CTRL sent by each) when more than one SDC counts,
+    an SDC without statistics as ``n/a``; nothing for one SDC."""
+    rows = {s: f"{r['meas_rx']}/{r['ctrl_tx']}" for s, r in turbine.get("per_sdc", {}).items()}
+    rows |= {s: "n/a" for s in summary.get("sdc_stats_missing", {})}
+    return "" if len(rows) < 2 else " [" + ", ".join(f"{s} {v}" for s, v in sorted(rows.items())) + "]"
 
 
 def _cmd_clean(args) -> int:

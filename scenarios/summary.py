@@ -334,6 +334,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
                  for p in sorted(out.glob(pattern)) if not p.stem.endswith("_config")},
         "processes_exited_early": {n: c for n, c in run.exited_early.items() if n not in run.killed},
         "processes_killed": sorted(run.killed),
+        "sdc_stats_missing": sdc_stats_missing(run, sdcs),
         "openflow": openflow_section(sdn),
         "controllers": {f"instance{st.get('instance', 1)}": {"role": st.get("role"), "generation": st.get("generation"),
                                                             "openflow": st.get("openflow", {})} for st in sdn_states},
@@ -369,3 +370,13 @@ def openflow_section(sdn: dict) -> dict:
     of["by_cause"] = by_cause
     of["keepalive"] = {"echo_requests_rx": of.get("rx_echo_keepalive", 0), "switch_connects": counters.get("switch_connects", 0)}
     return of
+
+
+def sdc_stats_missing(run, sdcs: dict) -> dict[str, str]:
+    """The SDCs the run started that left no statistics (an SDC writes them when it ends; one killed
+    with SIGKILL cannot): their MEAS and CTRL are missing from every turbine's ``meas_rx_sdc`` and
+    ``ctrl_tx_sdc`` (which add up ``per_sdc``), so those can be below ``meas_tx`` / ``ctrl_rx``."""
+    procs = getattr(getattr(run, "processes", None), "procs", {})
+    started = sorted({name.split(".")[0] for name in procs if name.endswith(".sdc")})
+    return {s: "killed" if f"{s}.sdc" in run.killed else "ended without writing them"
+            for s in started if s not in sdcs}
