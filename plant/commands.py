@@ -13,8 +13,10 @@ import numpy as np
 
 from plant import kernels
 from plant import turbine as T
+from plant import turbine_laws as laws
 from sdc_unit import law
 from sdc_unit.params import ViscParams
+from sdvisc.vocabulary import OMEGA0
 
 _INTP, _FLOAT64 = np.dtype(np.intp), np.dtype(np.float64)
 
@@ -58,6 +60,7 @@ class Commands:
         is made again, but the held slow terms and the operating values stay (they do not depend on
         the references), as after a step; a command since the last evaluation still counts."""
         if self._cache is not None:
+            self._v_nodes, self._v_nodes_k = self._cache[2]["v"], self.k  # v does not depend on the references
             self._cache = None
             self._slow_keep = True
 
@@ -69,6 +72,8 @@ class Commands:
         if not rem.size:
             return
         tp = self.params.turbine
+        if tp.i_max_local > 0.0 and tp.remote_apply == "v_ref":
+            self._local_current_limit(rem)
         if not kernels.remote_needs_action(self.X, rem, tb.last_rx_step, self.k, self.step_s, tp.trip_current,
                                            tp.remote_loss_fallback_s, tb.fallback_enabled):
             return  # the usual case: no current above the trip level, no reference too old
@@ -88,6 +93,35 @@ class Commands:
             tb.fallbacks[late] += 1
             tb.trips[over] += 1
             self._cache = None
+
+    def _local_current_limit(self, rem) -> None:
+        """The remote converters' local current limit (``TurbineParams.i_max_local``,
+        ``turbine_laws.remote_current_limit``), decided at the step's start and held over the step: where the
+        last received v_ref (less the turbine's active damping, within its modulation limit: as applied)
+        would take the filter current
+        above i_max_local within the step, the applied v_hold makes it draw that current scaled to
+        i_max_local (the damping added back, the turbine subtracts it); else the received v_ref."""
+        tb, tp = self.tb, self.params.turbine
+        fresh = rem[tb.last_rx_step[rem] == self.k]  # references stored for this step (or the mode set)
+        tb.v_sdc[fresh] = tb.v_hold[fresh]
+        if self._cache is not None:
+            v = self._cache[2]["v"][rem]
+        elif getattr(self, "_v_nodes_k", -1) == self.k:  # only the references changed since the evaluation
+            v = self._v_nodes[rem]
+        else:
+            v = self._eval_cached()[2]["v"][rem]
+        S = self.layout.turbines(self.X)
+        i = S[T.IF, rem]
+        damping = tp.k_ad * (v - S[T.AD, rem]) if tb.ext_active_damping else 0.0
+        v_ref = tb.v_sdc[rem] - damping
+        vr_re, vr_im, _ = laws.modulation_limit(v_ref.real, v_ref.imag, np.sqrt(np.maximum(S[T.W, rem].real, 1e-4)),
+                                                tp.m_max)  # what the converter makes of it
+        lr, li, on = laws.remote_current_limit(vr_re, vr_im, v.real, v.imag, i.real, i.imag, tp.rf, tp.lf,
+                                               self.step_s * OMEGA0 / tp.lf, tp.i_max_local)
+        applied = np.where(on, lr + 1j * li + damping, tb.v_sdc[rem])
+        if not np.array_equal(applied, tb.v_hold[rem]):
+            tb.v_hold[rem] = applied
+            self._references_changed()
 
     @property
     def fallbacks(self) -> np.ndarray:
@@ -117,7 +151,7 @@ class Commands:
         if code == T.GFL:
             self.tb.bumpless_gfl(S, aux["v"], idx, aux["vconv"][idx])
         elif code == T.REMOTE:
-            self.tb.v_hold[idx] = aux["vconv"][idx]
+            self.tb.v_hold[idx] = self.tb.v_sdc[idx] = aux["vconv"][idx]
             self.tb.i_hold[idx] = S[T.IF, idx]
             self.tb.last_rx_step[idx] = self.k
             self.tb.fell_back[idx] = False
@@ -230,3 +264,4 @@ class Commands:
     def _refresh(self) -> None:
         self.net.ensure()
         self._cache = None
+        self._v_nodes_k = -1  # the network changed: the saved node voltages are not this state's

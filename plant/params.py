@@ -183,20 +183,15 @@ class TurbineParams:
     i_max_local: float = 1.5
     """The converter's local current limit under a received voltage reference (remote, ``remote_apply``
     "v_ref"), p.u.; 0 disables it. A real converter clamps locally, within its own control period: its
-    current controller saturates the reference at the hardware's overcurrent capability (a
-    grid-forming converter's current-limiting mode, Taul et al. 2019 as cited by the paper for the
-    law's circular limiter; RTDS/RSCAD converter models limit the current locally), and a hardware
-    trip (``trip_current``) stays behind it. Here: while the current the held v_ref drives through the
-    filter, or the filter current itself, exceeds this, the converter tracks that current scaled to
-    this magnitude with its own loop (``turbine_laws.remote_current_limit``) [paper: the SDViSC's
-    overcurrent capability 1.5 p.u., the law's ``i_max``]. Without it the SDC's limiter, a sample
-    late through the network, let the onshore SDViSC reach 1.755 p.u. (F6net.a) and 2.07 p.u. with
-    a trip offline (issue 39 item 11)."""
-    kpc_local: float = 0.5
-    """Gain of that local current-limiting loop, p.u. V / p.u. A: closed-loop pole omega0 (k + r_f)/l_f
-    = 2000 /s (0.5 ms) [assumed: the fastest the plant's 0.67 ms step integrates stably (the remote
-    turbines' filter current is stepped by Heun: h |lambda| = 1.3 < 2); a hardware limiter acts within a
-    switching period, faster still]."""
+    current controller saturates at the hardware's overcurrent capability (a grid-forming converter's
+    current-limiting mode, e.g. Taul et al. 2019, which the paper cites for the law's circular limiter;
+    RTDS/RSCAD converter models limit their current locally), with a hardware trip (``trip_current``)
+    behind it. Here, decided once per plant step (``Commands._local_current_limit``,
+    ``turbine_laws.remote_current_limit``): where the held v_ref would take the filter current above this
+    within the step, the converter draws that current scaled to this magnitude instead [paper: the
+    SDViSC's overcurrent capability 1.5 p.u., the law's ``i_max``]. Without it the SDC's limiter, a
+    sample late, let the onshore SDViSC reach 1.755 p.u. through the network (F6net.a) and 2.07 p.u.
+    offline with a trip (issue 39 item 11)."""
     remote_loss_fallback_s: float = 0.1
     """Remote mode: time without a new reference before falling back to grid-following, s [brief]."""
 

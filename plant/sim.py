@@ -55,7 +55,6 @@ class Plant(Commands, RightHandSide):
         jit = jit and not self.net.dynamic  # the compiled kernels solve the quasi-static network only
         self.tb = T.TurbineBank(self.params.turbine, n, self.params.v_wind, self.params.battery,
                                 rating_mva=self.net.rating_mva)
-        self.tb.ext_active_damping = self.net.dynamic
         self.sc = Condenser(self.params.condenser)
         self.layout = StateLayout(n)
         self.size = self.layout.size

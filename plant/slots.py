@@ -28,7 +28,7 @@ def _slots(name: str, names: tuple[str, ...]) -> type[IntEnum]:
 TURBINE_GAINS = (
     "kpc", "kic", "lf", "rf", "w0_over_lf", "w0_rf_over_lf", "w0_kp_pll", "kp_pll", "ki_pll", "m_max",
     "v_dc_ref", "kp_dc", "ki_dc", "two_over_tau_dc", "p_me_min", "v_chop", "k_chop", "i_max_gfl",
-    "frt_v_dip", "frt_k_qv", "inv_t_ufilt", "k_ad", "w_ad",
+    "frt_v_dip", "frt_k_qv", "inv_t_ufilt", "k_ad", "w_ad", "k_ad_ext",
 )
 SLOW_CONSTANTS = (
     "v_wind_rated", "lambda_opt", "cp_opt", "p_me_max", "p_headroom", "omega_r_ref", "kp_beta", "beta_max",
@@ -74,6 +74,7 @@ def turbine_gains(tp) -> dict[str, float]:
         "two_over_tau_dc": 2.0 / tp.tau_dc, "p_me_min": tp.p_me_min, "v_chop": tp.v_chop, "k_chop": tp.k_chop,
         "i_max_gfl": tp.i_max_gfl, "frt_v_dip": tp.frt_v_dip, "frt_k_qv": tp.frt_k_qv,
         "inv_t_ufilt": 1.0 / tp.t_ufilt, "k_ad": tp.k_ad, "w_ad": tp.w_ad,
+        "k_ad_ext": tp.k_ad if tp.ext_active_damping else 0.0,
     }
 
 

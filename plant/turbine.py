@@ -101,14 +101,14 @@ class TurbineBank:
         self.q_wpp = np.zeros(n)  # Q* added by the plant-level voltage controller (plant/wpp.py)
         self.p_cmd = np.zeros(n)
         self.mppt = np.ones(n, dtype=bool)  # grid-following P* from the MPPT curve (else p_cmd)
-        self.v_hold = np.zeros(n, dtype=complex)
+        self.v_hold = np.zeros(n, dtype=complex)  # the remote v_ref applied (the SDC's, or the local limit's)
+        self.v_sdc = np.zeros(n, dtype=complex)  # the last v_ref received (Commands._local_current_limit)
         self.i_hold = np.zeros(n, dtype=complex)
         self.last_rx_step = np.zeros(n, dtype=np.int64)
         self.fallback_enabled = True
-        # the converters' active damping also under hd_visc/remote references: set by the plant with the
-        # dynamic-phasor network only (the quasi-static network has no filter resonance to damp; there
-        # the ViSC's inner loop is the law's or the SDC's, as the report's pinned results have it)
-        self.ext_active_damping = False
+        # the converters' active damping also under hd_visc/remote references, with either network model
+        # (TurbineParams.ext_active_damping; issue 39 item 10: it was the dynamic-phasor network's only)
+        self.ext_active_damping = bool(params.ext_active_damping)
         self.fell_back = np.zeros(n, dtype=bool)
         self.fallbacks = np.zeros(n, dtype=np.int64)
         self.trips = np.zeros(n, dtype=np.int64)

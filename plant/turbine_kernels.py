@@ -75,6 +75,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
     kpc, kic, i_max = constants[Const.kpc], constants[Const.kic], constants[Const.i_max_gfl]
     v_dip, k_qv = constants[Const.frt_v_dip], constants[Const.frt_k_qv]
     inv_t_ufilt, k_ad, w_ad = constants[Const.inv_t_ufilt], constants[Const.k_ad], constants[Const.w_ad]
+    k_ad_ext = constants[Const.k_ad_ext]
     j_lf = complex(0.0, constants[Const.lf])
     z_filter = complex(constants[Const.rf], constants[Const.lf])
     remote_i_ref = constants[Const.remote_i_ref] != 0.0
@@ -97,6 +98,7 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
                 v_conv = v + z_filter * i_ref + kpc * (i_ref - i)
             else:
                 v_conv = v_ext[j]
+            v_conv = v_conv - k_ad_ext * (v - X[AD * n + j])  # the converter's own active damping
             g = v_conv - v - j_lf_i
             e_i = 0j
         else:

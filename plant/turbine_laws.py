@@ -59,6 +59,25 @@ def modulation_limit(vc_re, vc_im, v_dc, m_max):
     return vc_re * scale, vc_im * scale, vm > vmax
 
 
+def remote_current_limit(vr_re, vr_im, v_re, v_im, i_re, i_im, rf, lf, a, i_lim):
+    """The converter's local current limit under a received voltage reference (remote mode, v_ref),
+    decided for one step: i_p = i + a (v_ref - v - (r_f + j l_f) i), the filter current v_ref would
+    reach over the step (forward Euler, ``a`` = h omega0 / l_f); where |i_p| > ``i_lim`` (> 0) the converter
+    draws i_c = i_p scaled to i_lim (its angle kept: a circular limit on the current it will draw) with
+    v_conv = v + (r_f + j l_f) i + (i_c - i) / a, else v_conv = v_ref exactly. (Re, Im, engaged)."""
+    zi_re = rf * i_re - lf * i_im
+    zi_im = rf * i_im + lf * i_re
+    ip_re = i_re + a * (vr_re - v_re - zi_re)
+    ip_im = i_im + a * (vr_im - v_im - zi_im)
+    mag = np.sqrt(ip_re * ip_re + ip_im * ip_im)
+    on = (mag > i_lim) & (i_lim > 0.0)
+    scale = np.minimum(1.0, i_lim / np.maximum(mag, 1e-12))
+    f = on * 1.0
+    lc_re = v_re + zi_re + (ip_re * scale - i_re) / a
+    lc_im = v_im + zi_im + (ip_im * scale - i_im) / a
+    return f * lc_re + (1.0 - f) * vr_re, f * lc_im + (1.0 - f) * vr_im, on
+
+
 def msc_power(e_dc, x_d, p_avail, kp_dc, ki_dc, p_me_min):
     """The machine-side converter's DC-voltage PI, (P_me, dx_d/dt): P_me = clip(kp_dc e_dc + x_d,
     p_me_min, P_avail); its integrator stops while P_me is clipped and the error pushes further out."""
