@@ -6,6 +6,7 @@ their figure."""
 from __future__ import annotations
 
 import functools
+import textwrap
 
 import numpy as np
 
@@ -84,25 +85,25 @@ def _tv(r: dict) -> tuple:
 
 
 def _f7_ramp_figure(ctx: Context, ramps: dict[str, dict[str, dict]], mechs: dict[str, tuple]) -> None:
-    fig, axes = figures.new(len(ramps), height_per_row=2.0, sharex=False)
+    fig, axes = figures.new(len(ramps), height_per_row=2.4, sharex=False)
     for ax, (name, by_wpp) in zip(axes[:, 0], ramps.items()):
         for w, style in zip(WPP_VARIANTS, ("-", "--")):
             r = by_wpp[w]
             loss = "stable to the floor" if r["loss_scr"] is None else f"lost at SCR {r['loss_scr']:.3f}"
             ax.plot(r["scr"], r["v_pcc"], ls=style, lw=0.7,
-                    label=f"{name}, {w} plant controller, ramp: {loss}: {mechs[name][1][w]}")
+                    label=textwrap.fill(f"{name}, {w} plant controller, ramp: {loss}: {mechs[name][1][w]}", 110))
         step_mech, _, step_iec, step_legacy = mechs[name]
         for x, c in ((step_iec, "C3"), (step_legacy, "C7")):
             if x is not None:
                 ax.axvline(x, color=c, ls="-.", lw=0.8)
-        ax.set_title(f"step boundary (dash-dot) IEC {_fmt(step_iec)}, legacy {_fmt(step_legacy)}; below the IEC "
-                     f"one after the step: {step_mech}", fontsize=7)
+        ax.set_title(textwrap.fill(f"{name}: step boundary (dash-dot) IEC {_fmt(step_iec)}, legacy {_fmt(step_legacy)}; "
+                                   f"below the IEC one after the step: {step_mech}", 110), fontsize=7)
         for v in V_NORMAL:
             ax.axhline(v, color="0.5", ls=":", lw=0.8)
         ax.set_xlim(mech.RAMP_FROM, 1.0)
         ax.set_ylabel("|V_pcc| [p.u.]")
-        ax.legend(fontsize=6, loc="lower left")
-    axes[-1, 0].set_xlabel("SCR along the slow ramp (time runs right to left); after the loss the run goes on "
+        ax.legend(fontsize=5.5, loc="lower left")
+    axes[-1, 0].set_xlabel("SCR along the slow ramp (time runs left to right); after the loss the run goes on\n"
                            f"{mech.AFTER_LOSS_S:g} s at that SCR to show what the loss is", fontsize=8)
     figures.save(ctx, fig, "f7_ramp_boundaries", "F7's quasi-static boundaries: the SCR lowered slowly "
                  "(report/f7_mechanism.py); the step boundaries are in f7_weak_grid_boundaries.",
