@@ -242,9 +242,8 @@ class SpoofAk(_Event):
     impersonate: bool = False
     count: int = Field(100, ge=1, le=100_000)
     duration_s: float = Field(1.0, gt=0, le=3600)
-    seq0: int = Field(100_000, ge=0, le=2**31 - 1, description="the forged AK counter's first value")
-    ctrl_rx: int | None = Field(None, ge=0, le=2**31 - 1,
-                                description="the forged AKs' ctrl_rx (default: the counter's value)")
+    seq0: int = Field(100_000, ge=0, le=2**31 - 1)  # the forged AK counter's first value
+    ctrl_rx: int | None = Field(None, ge=0, le=2**31 - 1)  # the forged AKs' ctrl_rx (None: the counter's)
 
 
 class Impair(_Event):
