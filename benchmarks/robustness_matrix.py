@@ -26,6 +26,8 @@ import time
 from datetime import date
 from pathlib import Path
 
+from host_tools.child_signals import default_signals
+
 ROOT = Path(__file__).resolve().parents[1]
 LOCK = "/tmp/sdvisc-net.lock"
 HANG_S = 600.0
@@ -54,8 +56,9 @@ def cell(path: Path, auto: bool, ending: str, rng: random.Random) -> dict:
     cmd = [sys.executable, "-m", "scenarios.cli", "run", str(path), "--out", str(out), "--quiet"]
     cmd += ["--time-scale", "auto"] if auto else []
     started = time.monotonic()
+    # (default dispositions: started from a background job the matrix ignores SIGINT, and so would the run)
     proc = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            start_new_session=True)
+                            start_new_session=True, preexec_fn=default_signals)
     result = {"scenario": path.stem, "time_scale": "auto" if auto else "own", "ending": ending}
     deadline = started + HANG_S
     if ending != "end":
