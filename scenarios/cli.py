@@ -132,6 +132,10 @@ def _print_result(summary: dict, out: Path) -> None:
         one_way = f"one-way p50={d['p50']:.2f} ms" if d.get("p50") is not None else "one-way: not stamped"
         print(f"  {name}: meas_tx={p['meas_tx']} meas_rx_sdc={p['meas_rx_sdc']} ctrl_tx_sdc={p['ctrl_tx_sdc']} "
               f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  {one_way}{_by_sdc(t, summary)}")
+    conflicts = sorted({e["wt"] for e in summary.get("events", []) if e.get("type") == "ak_conflict"})
+    if conflicts:  # two live AK streams for one turbine: someone on its LAN sends AKs in its name (docs/sdn.md)
+        print(f"sdvisc: warning: {summary['sdn_counters'].get('ak_conflict', len(conflicts))} AK conflict(s) for "
+              f"{', '.join(conflicts)}: a second AK stream in the turbine's name was ignored (forged? docs/sdn.md)")
     for sdc, why in summary.get("sdc_stats_missing", {}).items():
         print(f"sdvisc: note: {sdc} left no statistics ({why}): meas_rx_sdc and ctrl_tx_sdc leave out what it served")
     for r in summary["recoveries"]:

@@ -25,3 +25,13 @@ def test_the_cli_line_shows_each_sdcs_share_when_more_than_one_counts():
     one_left = {"per_sdc": {"sdc2": {"meas_rx": 1442, "ctrl_tx": 1442}}}
     assert _by_sdc(one_left, {"sdc_stats_missing": {"sdc1": "killed"}}) == " [sdc1 n/a, sdc2 1442/1442]"
     assert _by_sdc(one_left, {}) == ""
+
+
+def test_ak_conflicts_are_printed(capsys, tmp_path):
+    from scenarios.cli import _print_result
+
+    summary = {"scenario": "x", "steps": 10, "step_s": 0.00067, "late_steps": 0, "turbines": {}, "recoveries": [],
+               "sdn_counters": {"ak_conflict": 2},
+               "events": [{"type": "ak_conflict", "wt": "wt1_1", "t": 1.5}, {"type": "ak_conflict", "wt": "wt1_1", "t": 3.0}]}
+    _print_result(summary, tmp_path)
+    assert "2 AK conflict(s) for wt1_1" in capsys.readouterr().out
