@@ -52,12 +52,12 @@ class ViscParams:
             integration), default True [assumed; without it E winds up to ~6 p.u. during a 0.3 p.u.
             dip and the ViSC stays current-limited for seconds after clearance].
 
-    Virtual friction, eq. (4) (supplementary control), input omega_s - omega as printed: that sign adds
-    damping to the swing mode, decided by its effect (issue 39 item 7, tests/unit/test_virtual_friction_damping.py:
-    the plant + law linearised at the comparison case's equilibrium after SCR 7.14 -> 2.0, damping ratio
-    0.721 without friction, 0.754 as printed, 0.690 with the input flipped, monotonic in the gains; the
-    nonlinear run settles only with the printed sign). So no "paper-literal" option: the printed sign is
-    the damping one here.
+    Virtual friction, eq. (4) (supplementary control), input omega_s - omega as printed: of the two signs
+    it is the one that damps, decided by its effect (issue 39 item 7, tests/unit/test_virtual_friction_damping.py:
+    the plant + law linearised in the comparison case at SCR 1.9-3.0: the swing mode's damping ratio rises
+    with the printed sign (SCR 2.0: 0.719 -> 0.761) and falls flipped (0.656), at both equilibria of SCR 2.0).
+    So no "paper-literal" option. With these [assumed] gains the loop adds a 2.3-3.7 Hz mode, at SCR 2.0 with
+    damping ratio down to 0.25: the tuning is open, not the sign.
         supp: supplementary control (virtual friction) enabled, default False [assumed; paper uses
             it in the weak-grid cases].
         k_f1: gain K_F1 [p.u. V * s / p.u. speed], default 20.0 [assumed, PARAMETERS.md K_F].
