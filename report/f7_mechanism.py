@@ -65,7 +65,7 @@ def ramp_run(plant, rate: float, snapshot_scrs=()) -> dict:
     with np.errstate(all="ignore"):
         while True:
             t_next = plant.t + RAMP_DT
-            s = scr_at(plant.t + 1e-9)
+            s = scr if loss_t is not None else scr_at(plant.t + 1e-9)  # held at the loss's SCR after it
             if s != scr:
                 while want and scr <= want[0] + 1e-9 and loss_t is None:  # settled RAMP_DT at scr
                     snaps[want.pop(0)] = (plant.state_real().copy(), plant.tb.q_wpp.copy(),
