@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant import kernels
+from plant import kernels, turbine_kernels
 from plant import turbine as T
-from plant import turbine_laws as laws
 from sdc_unit import law
 from sdc_unit.params import ViscParams
 from sdvisc.vocabulary import OMEGA0
@@ -102,25 +101,16 @@ class Commands:
         above i_max_local within the step, the applied v_hold makes it draw that current scaled to
         i_max_local (the damping added back, the turbine subtracts it); else the received v_ref."""
         tb, tp = self.tb, self.params.turbine
-        fresh = rem[tb.last_rx_step[rem] == self.k]  # references stored for this step (or the mode set)
-        tb.v_sdc[fresh] = tb.v_hold[fresh]
         if self._cache is not None:
-            v = self._cache[2]["v"][rem]
+            v = self._cache[2]["v"]
         elif getattr(self, "_v_nodes_k", -1) == self.k:  # only the references changed since the evaluation
-            v = self._v_nodes[rem]
+            v = self._v_nodes
         else:
-            v = self._eval_cached()[2]["v"][rem]
-        S = self.layout.turbines(self.X)
-        i = S[T.IF, rem]
-        damping = tp.k_ad * (v - S[T.AD, rem]) if tb.ext_active_damping else 0.0
-        v_ref = tb.v_sdc[rem] - damping
-        vr_re, vr_im, _ = laws.modulation_limit(v_ref.real, v_ref.imag, np.sqrt(np.maximum(S[T.W, rem].real, 1e-4)),
-                                                tp.m_max)  # what the converter makes of it
-        lr, li, on = laws.remote_current_limit(vr_re, vr_im, v.real, v.imag, i.real, i.imag, tp.rf, tp.lf,
-                                               self.step_s * OMEGA0 / tp.lf, tp.i_max_local)
-        applied = np.where(on, lr + 1j * li + damping, tb.v_sdc[rem])
-        if not np.array_equal(applied, tb.v_hold[rem]):
-            tb.v_hold[rem] = applied
+            v = self._eval_cached()[2]["v"]
+        k_ad = tp.k_ad if tb.ext_active_damping else 0.0
+        if turbine_kernels.local_current_limit(self.X, np.ascontiguousarray(v, dtype=complex), rem, tb.v_sdc,
+                                               tb.v_hold, tb.last_rx_step, self.k, tp.rf, tp.lf,
+                                               self.step_s * OMEGA0 / tp.lf, tp.i_max_local, k_ad, tp.m_max):
             self._references_changed()
 
     @property

@@ -30,6 +30,7 @@ _OPTS = dict(error_model="numpy")  # IEEE division as in numpy
 pll_error = njit(**_OPTS)(laws.pll_error)
 gfl_current_ref = njit(**_OPTS)(laws.gfl_current_ref)
 modulation_limit = njit(**_OPTS)(laws.modulation_limit)
+remote_current_limit = njit(**_OPTS)(laws.remote_current_limit)
 msc_power = njit(**_OPTS)(laws.msc_power)
 dc_link_power = njit(**_OPTS)(laws.dc_link_power)
 dc_link_control = njit(**_OPTS)(laws.dc_link_control)
@@ -129,3 +130,30 @@ def turbines_rhs(X, node_v, constants, slow, mode, v_ext, i_hold, soc, dX, rows,
         dX[AD * n + j] = (v - X[AD * n + j]) * w_ad
         if want:
             _write_rows(rows, j, v, i, v_dc, (kp_pll * e_v + x_pll) + 1.0, p_me, v_conv, i_batt)
+
+
+@njit(cache=True, **_OPTS)
+def local_current_limit(X, v, rem, v_sdc, v_hold, last_rx_step, k, rf, lf, a, i_lim, k_ad, m_max):
+    """The remote converters' local current limit for one plant step (``Commands._local_current_limit``):
+    for each turbine of ``rem``, the v_ref received this step (``last_rx_step`` == ``k``) kept in ``v_sdc``;
+    ``v_hold`` (applied) set to the local limit's voltage where ``turbine_laws.remote_current_limit``
+    engages on v_sdc less the active damping ``k_ad`` (v - phi) within the modulation limit, else to
+    v_sdc. ``X`` the plant's flat state, ``v`` the turbines' terminal voltages at it. Returns whether any
+    v_hold changed."""
+    n = v_hold.shape[0]
+    changed = False
+    for r in range(rem.shape[0]):
+        j = rem[r]
+        if last_rx_step[j] == k:
+            v_sdc[j] = v_hold[j]
+        i = X[IF * n + j]
+        damping = k_ad * (v[j] - X[AD * n + j])
+        vr = v_sdc[j] - damping
+        v_dc = math.sqrt(max(X[W * n + j].real, 1e-4))
+        vr_re, vr_im, _ = modulation_limit(vr.real, vr.imag, v_dc, m_max)
+        lr, li, on = remote_current_limit(vr_re, vr_im, v[j].real, v[j].imag, i.real, i.imag, rf, lf, a, i_lim)
+        applied = complex(lr, li) + damping if on else v_sdc[j]
+        if applied != v_hold[j]:
+            v_hold[j] = applied
+            changed = True
+    return changed
