@@ -15,6 +15,7 @@ from plant.battery import BatteryBank
 from plant.cases import COMPARISON_UNIT, comparison_visc_plant
 from plant.params import BatteryParams, TurbineParams
 from report import figures
+from report.dynamic_cases import DYN_T0, _every, dynamic
 from report.plantcases import FAULT_SLG, bare_plant, sc_plant, t90, visc_indices, window
 from report.registry import INPUT, Context, Experiment, Finding, PaperClaim
 from report.verdicts import change_close_to, close_to, holds
@@ -291,7 +292,6 @@ def sc_first_peak_dynamic() -> float:
     """The SC's first-cycle maximum phase current on the dynamic-phasor network (its inductances keep
     their current at the fault's instant: the DC offset, which the quasi-static network has not), F6's
     fault from rest at 0.1 s (≈ 2 s of wall time) [report/exp_network_model.py runs the same]."""
-    from report.exp_network_model import DYN_T0, _every, dynamic  # noqa: PLC0415 - imports this module
 
     p = dynamic(sc_plant)
     r = p.run_offline(DYN_T0 + 0.03, events=f6_events(DYN_T0), record_every=_every(p.step_s, 2.5e-4))

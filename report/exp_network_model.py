@@ -15,15 +15,14 @@ one from the network."""
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import time
 
 import numpy as np
 
 import plant.cases
-from plant.dynamic_network import DYNAMIC_STEP_S
 from report import figures
+from report.dynamic_cases import DYN_T0, _every, dynamic
 from report.exp_grid import f6_events, f6_numbers
 from report.exp_parallel import M_Q, PAPER_V_BEFORE, VISC, _grid_emf_for
 from report.exp_weak import (
@@ -41,34 +40,10 @@ from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClai
 from report.stability import PTP_DAMPED, of_run
 from sdc_unit.params import ViscParams
 
-DYN_T0 = 0.1  # s: the event of a dynamic run (the F-experiments': 1 s)
 SCR_STEP = 0.05  # F7: the dynamic runs at the quasi-static boundary ± this
 YES, PARTLY = 0.05, 0.15  # relative difference dynamic vs quasi-static: yes within 5 %, partly within 15 %
 RULE = f"yes = within {YES:.0%} of the quasi-static number, partly = within {PARTLY:.0%}, else no"
 PAPER = "RTDS (EMT): the paper's network has its dynamics"
-
-
-@contextlib.contextmanager
-def dynamic_network():
-    """Inside, plant/cases.py's functions build their Plant on the dynamic-phasor network at
-    DYNAMIC_STEP_S (the parameters and the set-up are theirs; only the network model and the step change)."""
-    original = plant.cases.Plant
-
-    def build(pp, *args, **kwargs):
-        pp.network_model = "dynamic_phasor"
-        return original(pp, *args, **{**kwargs, "step_s": DYNAMIC_STEP_S})
-
-    plant.cases.Plant = build
-    try:
-        yield
-    finally:
-        plant.cases.Plant = original
-
-
-def dynamic(make, *args, **kwargs):
-    """``make(*args, **kwargs)`` (a case function, or a lambda calling one) on the dynamic network."""
-    with dynamic_network():
-        return make(*args, **kwargs)
 
 
 def rel(qs: float, dp: float) -> float:
@@ -78,10 +53,6 @@ def rel(qs: float, dp: float) -> float:
 def verdict_of(*rels: float) -> str:
     worst = max(abs(r) for r in rels)
     return "yes" if worst <= YES else "partly" if worst <= PARTLY else "no"
-
-
-def _every(step_s: float, dt: float = 1e-3) -> int:
-    return max(1, int(round(dt / step_s)))
 
 
 def _pre_ptp(r: dict, key: str, col: int | None = None) -> float:

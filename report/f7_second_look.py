@@ -12,9 +12,9 @@ import numpy as np
 
 from report import f7_mechanism as mech
 from report import figures
-from report.exp_weak import CONFIGS, F7_CONFIGS, T_EVENT, WPP_VARIANTS, _fmt, _plant, search_boundary
 from report.registry import Context
 from report.stability import LAST_S, V_NORMAL
+from report.weak_cases import CONFIGS, F7_CONFIGS, T_EVENT, WPP_VARIANTS, _fmt, _plant, search_boundary
 
 
 @functools.cache

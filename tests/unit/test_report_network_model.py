@@ -10,7 +10,8 @@ import pytest
 import plant.cases
 from plant.dynamic_network import DYNAMIC_STEP_S
 from report.catalogue import EXPERIMENTS
-from report.exp_network_model import NM, _nm_f6, dynamic, dynamic_network, osc_hz
+from report.dynamic_cases import dynamic, dynamic_network
+from report.exp_network_model import NM, _nm_f6, osc_hz
 from report.registry import CONSISTENCY, VERDICTS, Context
 
 
