@@ -25,8 +25,10 @@ class EmtComparison:
     """One EMT run of the comparison arrangement with ``device`` "sc", "visc" or "none"; ``grid``: the
     phasor plant's grid keys (``scr``, ``e_grid``, ...); ``fault_kind`` "slg" (phase a) or "3ph"."""
 
-    def __init__(self, device: str, fault_kind: str = "slg", steps_per_ts: int = STEPS_PER_TS, **grid):
+    def __init__(self, device: str, fault_kind: str = "slg", steps_per_ts: int = STEPS_PER_TS, law_every: int = 1,
+                 **grid):
         self.device = device
+        self.law_every = law_every  # circuit steps per sample of the SDViSC's law (1: the HD ViSC; 13: Ts)
         self.op, self.phasor_plant = from_phasor_plant(device, **grid)
         self.n_sub = steps_per_ts
         self.h = TS_S / steps_per_ts
@@ -100,8 +102,8 @@ class EmtComparison:
                     src.attr("V_ref").set(conv(e))
                 else:
                     vk = complex(frame.park(v_t[k], tk))
-                    if (k + 1) % self.n_sub == 0:
-                        self.visc.sample(vk, complex(frame.park(i_dev[k], tk)), TS_S)
+                    if (k + 1) % self.law_every == 0:
+                        self.visc.sample(vk, complex(frame.park(i_dev[k], tk)), self.law_every * self.h)
                     src.attr("V_ref").set(conv(self.visc.converter_voltage(vk, self.h)))
             if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
                 lo = k + 1 - spc
