@@ -78,6 +78,7 @@ class EmtComparison:
         v_pcc = np.zeros((n, 3))
         v_t = np.zeros((n, 3))
         i_dev = np.zeros((n, 3))
+        law_rec = np.full((n, 3), np.nan)  # SDViSC: |i_ref| (limited), |i*| over i_max flag, |E|
         t = (np.arange(n) + 1) * self.h
         spc = int(round(1.0 / (F_NOMINAL_HZ * self.h)))  # samples per cycle (~19.4 -> 19)
         farm_src = c["farm"]
@@ -105,6 +106,10 @@ class EmtComparison:
                     if (k + 1) % self.law_every == 0:
                         self.visc.sample(vk, complex(frame.park(i_dev[k], tk)), self.law_every * self.h)
                     src.attr("V_ref").set(conv(self.visc.converter_voltage(vk, self.h)))
+                    lo_ = self.visc.last
+                    if lo_ is not None:
+                        law_rec[k] = (abs(complex(lo_.i_ref_d[0], lo_.i_ref_q[0])), float(lo_.limited[0]),
+                                      float(lo_.e_mag[0]))
             if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
                 lo = k + 1 - spc
                 v1 = complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1])))
@@ -113,6 +118,7 @@ class EmtComparison:
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         out = {"t": t, "v_pcc_abc": v_pcc, "v_t_abc": v_t, "i_abc": i_dev, "spc": spc, "h": self.h,
                "wall_s": wall, "cpu_s": cpu, "k_device": self.op.k_device}
+        out["law_i_ref"], out["law_limited"], out["law_e"] = law_rec.T
         out["i_dev_abc"] = frame.delta_side(i_dev) / self.op.k_device if term else i_dev
         out["v_pcc"] = frame.park(v_pcc, t)
         out["v_t"] = frame.park(v_t, t)

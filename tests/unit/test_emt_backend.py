@@ -157,14 +157,15 @@ def test_converter_voltage_step_against_hand_phasor():
     def step(run):
         run.visc.v = 1.05 * op.e_source
 
-    r = m.run(0.3, events=[(0.1, step)])
+    r = m.run(0.5, events=[(0.1, step)])
     yg, yt, yf = 1 / op.z_grid, 1 / op.z_step_up, 1 / op.z_source
     # nodes pcc, terminal: Y V = I (the zero-sequence grounding path passes 1e-4 p.u. of positive sequence)
     y = np.array([[yg + yt, -yt], [-yt, yt + yf + 1j * op.b_filter]])
     rhs = np.array([op.e_grid * yg + op.i_farm, 1.05 * op.e_source * yf])
     v_pcc, v_t = np.linalg.solve(y, rhs)
-    assert abs(r["v_pcc"][-1]) == pytest.approx(abs(v_pcc), rel=0.002)
-    assert abs(r["v_t"][-1]) == pytest.approx(abs(v_t), rel=0.002)
+    last = r["t"] > r["t"][-1] - 0.02  # one cycle: the filter's LC ring (~765 Hz, no active damping) averages out
+    assert abs(np.mean(r["v_pcc"][last])) == pytest.approx(abs(v_pcc), rel=0.002)
+    assert abs(np.mean(r["v_t"][last])) == pytest.approx(abs(v_t), rel=0.002)
     assert abs(v_t) - abs(op.v_terminal) > 0.02  # the step moved it
 
 

@@ -1,0 +1,82 @@
+"""The EMT backend's cost (plant/emt/, DPsim 1.4.0): process CPU seconds per simulated second of the
+comparison arrangement at the 51.5 µs step (Ts/13), one simulated second after the operating point, for
+
+* ``none``: grid + the farm's injection only;
+* ``sc``: + the 40 MVA SC (its rotor and AVR in Python at every step);
+* ``visc``: + the 40 MVA SDViSC with the ViSC law at every step (the HD ViSC, the report's EMT rows);
+* ``visc_ts``: the same law sampled every Ts = 0.67 ms (stable here only with the converter's active
+  damping raised to k_ad 0.5, plant/emt/devices.py);
+* ``*_solver_only``: the same circuits stepped by ``sim.next()`` alone, no Python between the steps
+  (DPsim's own cost: the rest is the Python exchange).
+
+Usage: nice -n 10 .venv/bin/python benchmarks/emt_step_cost.py [--out benchmarks/measured/emt-step-cost-DATE.json]
+Not built: 4 converters + SC (the EMT circuit has one device so far).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import time
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+from plant.emt import arrangement  # noqa: E402
+from plant.emt.dpsim_env import dpsim  # noqa: E402
+from plant.emt.model import EmtComparison  # noqa: E402
+
+SIM_S = 1.0
+
+
+def with_exchange(device: str, law_every: int = 1, k_ad: float | None = None) -> dict:
+    m = EmtComparison(device, law_every=law_every)
+    if k_ad is not None:
+        m.visc.k_ad = k_ad
+    r = m.run(SIM_S)
+    return {"cpu_s_per_sim_s": r["cpu_s"] / SIM_S, "wall_s_per_sim_s": r["wall_s"] / SIM_S,
+            "us_per_step": r["cpu_s"] / len(r["t"]) * 1e6, "steps": len(r["t"]), "step_s": r["h"]}
+
+
+def solver_only(device: str) -> dict:
+    m = EmtComparison(device)
+    d = dpsim()
+    circ = arrangement.build(m.op)
+    sim = d.Simulation(f"bench_{device}", d.LogLevel.off)
+    sim.set_system(circ.sys)
+    sim.set_domain(d.Domain.EMT)
+    sim.set_time_step(m.h)
+    sim.set_final_time(SIM_S + 1.0)
+    sim.do_init_from_nodes_and_terminals(True)
+    n = int(round(SIM_S / m.h))
+    sim.start()
+    c0 = time.process_time()
+    for _ in range(n):
+        sim.next()
+    cpu = time.process_time() - c0
+    sim.stop()
+    return {"cpu_s_per_sim_s": cpu / SIM_S, "us_per_step": cpu / n * 1e6, "steps": n}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default="")
+    args = ap.parse_args()
+    res = {"none": with_exchange("none"), "sc": with_exchange("sc"), "visc": with_exchange("visc"),
+           "visc_ts": with_exchange("visc", law_every=13, k_ad=0.5)}
+    for dev in ("none", "sc", "visc"):
+        res[f"{dev}_solver_only"] = solver_only(dev)
+    out = {"what": "EMT backend CPU per simulated second (benchmarks/emt_step_cost.py)",
+           "date": datetime.date.today().isoformat(), "host": platform.node(), "cpus": os.cpu_count(),
+           "note": "nice 10, 2 cores shared with other jobs; process CPU of this process only", "results": res}
+    text = json.dumps(out, indent=1)
+    print(text)
+    if args.out:
+        with open(args.out, "w") as f:
+            f.write(text + "\n")
+
+
+if __name__ == "__main__":
+    main()
