@@ -188,7 +188,10 @@ def _emt_f6(ctx: Context) -> dict[str, Finding]:
                 f"full-offset bound κ I'' (IEC 60909, κ {kappa:.3f} from the SC branch's R/X) ({d_a:+.1%}). At 1.0 s "
                 f"phase a's PCC voltage is near its crest, so the offset is small; the scan: "
                 + ", ".join(f"{ang:.0f}° {p:.2f}" for ang, p in scan)
-                + f". The dynamic-phasor value {dyn_peak:.2f} is the envelope of the phase phasor (the DC offset "
+                + f". Above κ I'': κ is the peak factor of one R-L branch; the SC's phase current on its own side is "
+                f"the sum of its positive- and negative-sequence currents (EMT in the fault: I1 {s['i1_during']:.2f}, "
+                f"I2 {s['i2_during']:.2f} p.u.), each with its own offset, and the EMT's I'' is a little higher "
+                f"(the PCC's V1, row EMT.F6b). The dynamic-phasor value {dyn_peak:.2f} is the envelope of the phase phasor (the DC offset "
                 "as a 50 Hz ripple of it, the negative sequence added algebraically), not an instantaneous value. "
                 "Paper (F6.a): ≈ 4 p.u. (its instant unknown)",
                 {"emt_first_peak_at_1s": s["i_first_peak"], "emt_scan": scan, "emt_worst": worst,
