@@ -9,11 +9,12 @@ app cannot tell the datagrams apart, but it can tell the *streams* apart:
   ``ctrl_rx`` not lower) is used (``"ok"``); one a little behind it (a reordered or duplicated
   genuine AK: ``seq`` and ``ctrl_rx`` both not newer) is dropped as ``"stale"``;
 * anything else starts or continues a *candidate* stream (at most :data:`MAX_CANDIDATES` kept).
-  A candidate replaces the followed stream only if it **began after the followed stream stopped**
-  (its first message at least ``quiet_s`` after the followed stream's last one) and a second
-  message continued it (``"adopted"``): a restarted turbine, or the same turbine after an outage
-  longer than ``max_step`` AKs. A candidate that ran while the followed stream was alive is
-  never adopted, however long it lasts;
+  A candidate replaces the followed stream only **once the followed stream has stopped**: it sent
+  nothing for ``stale_s`` (:data:`STALE_S`, far beyond the 40 ms DR hold, so a loss that silences
+  the genuine AKs is a DR before anything else could be followed) and the candidate is alive and
+  was continued at least once (``"adopted"``): a restarted turbine, the same turbine after an
+  outage longer than ``max_step`` AKs — or the genuine stream again, if a gap let another one be
+  followed for a while. The stream that was followed stays a candidate (it may come back);
 * two streams alive together (a candidate continued at least once, and the followed stream sent
   a message after the candidate began) are a **conflict**: reported once per episode
   (:meth:`AkStreams.take_conflict`; the episode ends when the candidate has been silent for
@@ -35,6 +36,8 @@ Verdict = Literal["ok", "adopted", "stale", "candidate", "rejected"]
 ACCEPTED = ("ok", "adopted")
 MAX_CANDIDATES = 4
 """Candidate streams kept per turbine (the stalest is forgotten first)."""
+STALE_S = 0.5
+"""Silence after which the followed stream has stopped and a live candidate may replace it."""
 
 
 @dataclass
@@ -60,6 +63,7 @@ class AkStreams:
 
     max_step: int = 100
     quiet_s: float = 0.030
+    stale_s: float = STALE_S
     confirm: int = 2
     current: Stream | None = None
     candidates: list[Stream] = field(default_factory=list)
@@ -68,8 +72,8 @@ class AkStreams:
     new_conflict: dict | None = None
 
     def __post_init__(self) -> None:
-        if self.max_step < 1 or self.quiet_s <= 0 or self.confirm < 2:
-            raise ValueError("max_step must be at least 1, quiet_s positive, confirm at least 2")
+        if self.max_step < 1 or not 0 < self.quiet_s <= self.stale_s or self.confirm < 2:
+            raise ValueError("max_step must be at least 1, 0 < quiet_s <= stale_s, confirm at least 2")
 
     def admit(self, seq: int, ctrl_rx: int, now: float) -> Verdict:
         """Classify one AK (``seq``, ``ctrl_rx``) received at ``now``."""
@@ -92,8 +96,8 @@ class AkStreams:
             del self.candidates[:-MAX_CANDIDATES]
             return "candidate"
         cand.take(seq, ctrl_rx, now)
-        if cand.n >= self.confirm and cand.t_first >= cur.t_last + self.quiet_s:
-            self.current, self.candidates = cand, [c for c in self.candidates if c is not cand]
+        if cand.n >= self.confirm and now - cur.t_last >= self.stale_s:
+            self.current, self.candidates = cand, [c for c in self.candidates if c is not cand] + [cur]
             self.in_conflict = False
             return "adopted"
         self._live_conflict(now)

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from sdn_app.ak_streams import ACCEPTED, AkStreams
+from sdn_app.ak_streams import ACCEPTED, STALE_S, AkStreams
 
 MAX_BACKOFF_DOUBLINGS = 5
 READY_TIMEOUT_S = 0.1
@@ -79,7 +79,8 @@ class DrMonitor:
     def track(self, wt: str) -> AckTrack:
         t = self.tracks.get(wt)
         if t is None:
-            t = self.tracks[wt] = AckTrack(streams=AkStreams(AK_MAX_STEP, quiet_s=self.ak_timeout_s))
+            t = self.tracks[wt] = AckTrack(streams=AkStreams(
+                AK_MAX_STEP, quiet_s=self.ak_timeout_s, stale_s=max(STALE_S, self.ak_timeout_s)))
         return t
 
     def start(self, wt: str, now: float, *, armed: bool = True, await_path: bool = False) -> None:

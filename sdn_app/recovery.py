@@ -111,8 +111,10 @@ class Recovery:
         # a loss longer than the turbine's fallback time left it on its own control and the SDC's
         # instance running open loop; a repeated DR says the path was not the problem: start both again
         reengage = streak > 1 or (t_loss is not None and now - t_loss >= st.config.turbine_fallback_s)
+        ak = st.dr.tracks.get(name)  # the AK stream the decision rests on (sdn_app.ak_streams): its last seq
         st.event(now, cause, wt=name, t_loss=t_loss, t_detect=now, old_path=active.path, new_path=new_path,
-                 avoided="known down links" if known_bad else "current path (link-disjoint)", reengaged=reengage)
+                 avoided="known down links" if known_bad else "current path (link-disjoint)", reengaged=reengage,
+                 ak_seq=ak.seq if ak is not None else None)
         if reengage:
             actions += self.messenger.reengage(name, active.sdc, now)
         return actions

@@ -48,13 +48,14 @@ def test_ctrl_rx_going_back_is_another_stream():
 
 
 def test_a_restarted_turbine_is_followed_once_its_old_stream_stopped():
-    s = AkStreams(quiet_s=0.030)
+    s = AkStreams(quiet_s=0.030, stale_s=0.5)
     for k in range(5):
         assert s.admit(5000 + k, 9000 + k, 1.0 + k * PERIOD) == "ok"
-    # the turbine restarts: counters from 0, 200 ms after its last AK
+    # the turbine restarts: counters from 0; followed once the old stream has been silent for stale_s
     assert s.admit(0, 0, 1.24) == "candidate"
-    assert s.admit(1, 1, 1.25) == "adopted"
-    assert s.admit(2, 2, 1.26) == "ok" and s.conflicts == 0
+    assert s.admit(1, 1, 1.25) == "rejected"  # 0.21 s of silence: not yet stopped
+    assert s.admit(60, 60, 1.55) == "adopted"  # 0.51 s
+    assert s.admit(61, 61, 1.56) == "ok" and s.conflicts == 0
 
 
 def test_an_outage_longer_than_max_step_aks_is_followed_after():
@@ -64,17 +65,43 @@ def test_an_outage_longer_than_max_step_aks_is_followed_after():
     assert s.admit(10 + 151, 11, 2.51) == "adopted"
 
 
-def test_a_forged_stream_is_not_adopted_when_the_genuine_one_stops():
-    """It ran beside the genuine stream: when the genuine AKs stop (a failure cut their path) it is
-    still not the turbine's, however long it goes on."""
-    s = AkStreams(quiet_s=0.030)
+def test_a_forged_stream_is_followed_only_after_the_genuine_one_stopped_for_stale_s():
+    """It ran beside the genuine stream: when the genuine AKs stop (a failure cut their path), it is
+    not followed for stale_s (the DR by silence comes first, tests below); after that it is, until it
+    stops in turn — then the genuine stream, back by then, is followed again."""
+    s = AkStreams(quiet_s=0.030, stale_s=0.5)
     for k in range(10):
         s.admit(100 + k, 1000 + k, 1.0 + k * PERIOD)
         s.admit(10**6 + 2 * k, 0, 1.001 + k * PERIOD)
         s.admit(10**6 + 2 * k + 1, 0, 1.003 + k * PERIOD)
-    assert [s.admit(10**6 + 100 + k, 0, 1.2 + k * 0.002) for k in range(100)] == ["rejected"] * 100
-    assert s.current.seq == 109
-    assert s.admit(115, 1050, 1.5) == "ok"  # the genuine stream back after the reroute
+    forged = [s.admit(10**6 + 100 + k, 0, 1.1 + k * 0.002) for k in range(300)]  # 1.1 .. 1.7 s
+    assert set(forged[:int(0.49 / 0.002)]) == {"rejected"} and "adopted" in forged
+    assert s.current.seq >= 10**6
+    assert s.admit(115, 1050, 1.75) == "rejected"  # the genuine stream back: not followed while the forged one runs
+    for k in range(1, 30):
+        s.admit(115 + k, 1050 + k, 1.75 + k * PERIOD)
+    assert s.conflicts >= 2
+    assert s.admit(10**6 + 400, 0, 1.80) == "ok"  # the forged stream's last AK
+    verdicts = [s.admit(145 + k, 1080 + k, 2.05 + k * PERIOD) for k in range(30)]  # 0.25 .. 0.54 s after it
+    assert "adopted" in verdicts and verdicts[-1] == "ok" and s.current.seq >= 145
+
+
+def test_a_stream_followed_by_mistake_hands_over_once_it_stops():
+    """Under load the genuine AKs paused 40 ms; a fuzzer's consistent AK stream began in the pause
+    and (the genuine one silent for stale_s... here given) was followed. When it stops, the genuine
+    stream is followed again (it was not: every AK of the turbine ignored, DR after DR)."""
+    s = AkStreams(quiet_s=0.030, stale_s=0.5)
+    s.admit(100, 1000, 1.0)
+    assert s.admit(300, 300, 1.6) == "candidate" and s.admit(301, 301, 1.601) == "adopted"  # the mistake
+    for k in range(1, 40):  # both alive: the genuine one is the conflict now
+        s.admit(100 + k, 1000 + k, 1.6 + k * PERIOD)
+        s.admit(301 + 2 * k, 301 + 2 * k, 1.605 + k * PERIOD)
+    last_fuzz = 1.605 + 39 * PERIOD
+    verdicts = [(t, s.admit(140 + k, 1040 + k, t)) for k, t in enumerate(last_fuzz + 0.005 + i * PERIOD
+                                                                          for i in range(60))]
+    adopted = [t for t, v in verdicts if v == "adopted"]
+    assert adopted and adopted[0] - last_fuzz >= 0.5 and adopted[0] - last_fuzz < 0.5 + 2 * PERIOD
+    assert verdicts[-1][1] == "ok"
 
 
 def test_a_reordered_genuine_ak_is_stale_not_a_conflict():
@@ -175,7 +202,7 @@ def test_the_app_reports_the_conflict_once_and_does_not_reroute():
     assert ctl.snapshot()["acks"]["wt1_1"]["ctrl_rx"] == 35_000 + 15 * 39
 
 
-@pytest.mark.parametrize("quiet_s", [0, -1])
+@pytest.mark.parametrize("quiet_s", [0, -1, 0.6])
 def test_bad_parameters_are_refused(quiet_s):
     with pytest.raises(ValueError, match="quiet_s"):
-        AkStreams(quiet_s=quiet_s)
+        AkStreams(quiet_s=quiet_s, stale_s=0.5)
