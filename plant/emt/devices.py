@@ -8,7 +8,8 @@ import numpy as np
 
 from plant.condenser import Condenser
 from plant.params import CondenserParams, TurbineParams
-from sdc_unit import law
+from sdc_unit import law, law_jit
+from sdc_unit import law_kernels as K
 
 
 class CondenserEmf:
@@ -34,10 +35,11 @@ class CondenserEmf:
 
 
 class ViscConverter:
-    """The 40 MVA SDViSC: the continuous ViSC law (sdc_unit.law, the SDC's equations and parameters)
-    sampled every Ts with the terminal voltage and the filter current from the waveforms (Park, raw
-    sample, as the SDC receives them), integrated by forward Euler over Ts; its v_ref is held until the
-    next sample (zero-order hold in the common frame). The converter applies it with its own active
+    """The 40 MVA SDViSC: the continuous ViSC law (sdc_unit.law's equations, compiled by sdc_unit.law_jit;
+    the SDC's ViscParams) sampled every ``EmtComparison.law_every`` circuit steps (1: the HD ViSC; 13: Ts)
+    with the terminal voltage and the filter current from the waveforms (Park, raw sample, as the SDC
+    receives them), integrated by forward Euler over that interval; its v_ref is held until the next
+    sample (zero-order hold in the common frame). The converter applies it with its own active
     damping at every circuit step, as the phasor plant's converter does under a ViSC reference
     (``TurbineParams`` k_ad, w_ad, ext_active_damping [paper, Section II; D'Arco 2015]):
     v_conv = v_ref - k_ad (v - phi), dphi/dt = w_ad (v - phi)."""
@@ -46,21 +48,40 @@ class ViscConverter:
                  turbine: TurbineParams | None = None):
         t = turbine or TurbineParams()
         self.params = params
-        self.x = np.array(x0, dtype=float)
+        self.x = np.array(x0, dtype=float)[:, 0].copy()  # one unit's law state (sdc_unit.law layout)
         self.k = k_unit
         self.k_ad = t.k_ad if t.ext_active_damping else 0.0
         self.w_ad = t.w_ad
         self.phi = v0
         self.v_ref = v_ref0
-        self.last = None
+        self.i_ref, self.limited, self.e_mag = 0.0, 0.0, float("nan")
+        self._m = np.zeros(len(K.MEAS_ROWS))
+        self._dx = np.zeros_like(self.x)
+        self._out = np.zeros(len(K.OUT_ROWS))
+
+    @property
+    def params(self):
+        return self._params
+
+    @params.setter
+    def params(self, p) -> None:
+        self._params = p
+        self._c = law.param_rows(p, 1)[:, 0].copy()
 
     def sample(self, v_t: complex, i_net: complex, ts: float) -> None:
-        """The law's sample: measurements in, state advanced by ``ts``, v_ref held."""
-        meas = law.Measurements.from_complex(v_t, i_net / self.k)
-        dx, out = law.evaluate(self.x, meas, self.params)
-        self.x += ts * dx
-        self.last = out
-        self.v_ref = complex(out.v_ref_d[0], out.v_ref_q[0])
+        """The law's sample (sdc_unit.law_jit.law_rhs, the law's equations compiled): measurements in,
+        state advanced by ``ts`` (forward Euler), v_ref held."""
+        i = i_net / self.k
+        s = v_t * i.conjugate()
+        meas = {"v_d": v_t.real, "v_q": v_t.imag, "i_d": i.real, "i_q": i.imag, "p": s.real, "q": s.imag,
+                "v_dc": 1.0, "omega_meas": 1.0}
+        self._m[:] = [meas[name] for name in K.MEAS_ROWS]
+        law_jit.law_rhs(self.x, self._m, self._c, self._dx, self._out)
+        self.x += ts * self._dx
+        o = self._out
+        self.v_ref = complex(o[K.O_V_REF_D], o[K.O_V_REF_Q])
+        self.i_ref = abs(complex(o[K.O_I_REF_D], o[K.O_I_REF_Q]))
+        self.limited, self.e_mag = float(o[K.O_LIMITED]), float(o[K.O_E_MAG])
 
     def converter_voltage(self, v_t: complex, h: float) -> complex:
         """The converter's voltage for the next circuit step (active damping advanced by ``h``)."""

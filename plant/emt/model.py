@@ -106,10 +106,8 @@ class EmtComparison:
                     if (k + 1) % self.law_every == 0:
                         self.visc.sample(vk, complex(frame.park(i_dev[k], tk)), self.law_every * self.h)
                     src.attr("V_ref").set(conv(self.visc.converter_voltage(vk, self.h)))
-                    lo_ = getattr(self.visc, "last", None)
-                    if lo_ is not None:
-                        law_rec[k] = (abs(complex(lo_.i_ref_d[0], lo_.i_ref_q[0])), float(lo_.limited[0]),
-                                      float(lo_.e_mag[0]))
+                    law_rec[k] = (getattr(self.visc, "i_ref", np.nan), getattr(self.visc, "limited", np.nan),
+                                  getattr(self.visc, "e_mag", np.nan))
             if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
                 lo = k + 1 - spc
                 v1 = complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1])))
