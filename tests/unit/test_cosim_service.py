@@ -2,7 +2,9 @@
 
 * Under the paper's set-up (P* = 0 from t = 0, the controller started at once) and with the
   measurement taken after a step's events, it is the same loop as plant.cosim.run_sdc: round trip
-  L samples = run_sdc's delay L - 1 (measured: RMS / HD range below 0.03 %; bound 0.05 %).
+  L samples = run_sdc's delay L - 1 (RMS / HD range; the numbers at each test). The service's SDC
+  starts one sample later (its first MEAS is the state after step 0, run_sdc steps on the state at
+  0), so the two trajectories differ by that one sample of the start transient.
 * float32 values on the wire change nothing that matters (measured 3e-6 % of Q's range).
 * The service's order (a MEAS leaves before the next step's events, so the SDC sees a fault one
   sample later) and one late answer at the fault onset are what trip the converters in a network
@@ -33,10 +35,44 @@ def _pct(a, b, ref, names=("v_pcc", "q", "delta", "e_mag")):
     return {name: res[name]["rms_over_range_pct"] for name in names}
 
 
+E_STEP = 1e-3  # p.u. in one sample: a step of the SDC's E (one unheld AVR sample, ~2.3e-3 p.u.)
+
+
+def _e_steps(e: np.ndarray) -> list[np.ndarray]:
+    """Per turbine, the rows in the fault where the SDC's E steps by more than E_STEP in a sample."""
+    t = CASE.plant_step_s * (np.arange(len(e)) + 1)
+    fault = (t > CASE.t_fault_s) & (t < CASE.t_clear_s)
+    jump = np.zeros(e.shape, dtype=bool)
+    jump[1:] = np.abs(np.diff(e, axis=0)) > E_STEP
+    return [np.nonzero(jump[:, j] & fault)[0] for j in range(e.shape[1])]
+
+
 def test_one_sample_round_trip_is_run_sdc_without_delay(hd):
     service = run_service_sdc(PAPER, lag=1, quantise=False, meas_after_events=True)
-    for name, pct in _pct(service, run_sdc(CASE, delay_samples=0), hd).items():
-        assert pct < 0.06, (name, pct)  # measured 0.050 % (q) on the issue-28 turbines
+    sdc = run_sdc(CASE, delay_samples=0)
+    for name, pct in _pct(service, sdc, hd, ("v_pcc", "q", "delta")).items():
+        # measured (IEC WPP, 2026-12-05) 0.0011 / 0.0169 / 0.0045 %; a one-sample delay would be 0.13 / 3.3 / 0.76 %
+        assert pct < 0.06, (name, pct)
+    # E: while current-limited in the fault the SDC's E rises in steps of ~2.3e-3 p.u. (the AVR is held while
+    # limited, the limiter evaluated with the AVR held; a sample where that finds the current just inside i_max
+    # is one unheld AVR sample). Which sample a crossing of the limit falls on depends on the 1e-5-level
+    # difference the one-sample start leaves: measured 14 steps in both runs (23 rows with the fault's first 9
+    # samples, where E rises fast), 3 of them one sample apart (run_sdc's rows 598/613/636, the service's
+    # 599/614/637), each a 2.3e-3 p.u. difference for one sample, which alone took E's RMS / HD range from
+    # 0.073 % to 0.116 % (the farm's WPP orders, 0.014-0.017 p.u., set the operating point;
+    # with the WPP's k_i = 0, its start order held, the same 0.121 %; with no WPP 0.051 % and no step apart;
+    # a one-sample delay would be 1.35 %). The same steps, at most one sample apart:
+    steps_service, steps_sdc = _e_steps(service["e_mag"]), _e_steps(sdc["e_mag"])
+    for a, b in zip(steps_service, steps_sdc):
+        assert len(a) == len(b) >= 10 and np.abs(a - b).max() <= 1, (a, b)
+    apart = np.abs(service["e_mag"] - sdc["e_mag"]) > E_STEP
+    assert apart.sum(axis=0).max() <= 3, np.nonzero(apart)
+    for j, (a, b) in enumerate(zip(steps_service, steps_sdc)):
+        assert set(np.nonzero(apart[:, j])[0]) <= set(np.minimum(a, b)), j  # only where a step fell one sample apart
+    # the rest: E's start transient one sample apart, larger from the WPP's start order (t < 0.3 s gives
+    # 0.071 % of the 0.073 %; 0.049 % with no WPP); measured 0.073 %
+    e_rest = np.where(apart, np.nan, service["e_mag"])
+    assert _pct({**service, "e_mag": e_rest}, sdc, hd, ("e_mag",))["e_mag"] < 0.08
 
 
 def test_two_sample_round_trip_is_run_sdc_with_one_sample_delay(hd):
