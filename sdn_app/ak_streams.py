@@ -6,7 +6,7 @@ plain L2 switch another host can send AKs with the turbine's own IP and MAC (doc
 app cannot tell the datagrams apart, but it can tell the *streams* apart:
 
 * a message that continues the stream the app follows (``seq`` ahead by at most ``max_step``,
-  ``ctrl_rx`` not lower) is used (``"ok"``); one a little behind it (a reordered or duplicated
+  ``ctrl_rx`` not lower than the lower of its last two messages') is used (``"ok"``); one a little behind it (a reordered or duplicated
   genuine AK: ``seq`` and ``ctrl_rx`` both not newer) is dropped as ``"stale"``;
 * anything else starts or continues a *candidate* stream (at most :data:`MAX_CANDIDATES` kept).
   A candidate replaces the followed stream only **once the followed stream has stopped**: it sent
@@ -49,11 +49,16 @@ class Stream:
     t_first: float
     t_last: float
     n: int = 1
+    ctrl_before: int | None = None  # the ctrl_rx of the message before the last
 
     def continued_by(self, seq: int, ctrl_rx: int, max_step: int) -> bool:
-        return self.seq < seq <= self.seq + max_step and ctrl_rx >= self.ctrl_rx
+        """``seq`` a little ahead, ``ctrl_rx`` not below the lower of the last two messages' (one
+        message with a mutated, huge ``ctrl_rx`` cannot make every later genuine one "go back")."""
+        floor = self.ctrl_rx if self.ctrl_before is None else min(self.ctrl_rx, self.ctrl_before)
+        return self.seq < seq <= self.seq + max_step and ctrl_rx >= floor
 
     def take(self, seq: int, ctrl_rx: int, now: float) -> None:
+        self.ctrl_before = self.ctrl_rx
         self.seq, self.ctrl_rx, self.t_last, self.n = seq, ctrl_rx, max(self.t_last, now), self.n + 1
 
 

@@ -104,6 +104,18 @@ def test_a_stream_followed_by_mistake_hands_over_once_it_stops():
     assert verdicts[-1][1] == "ok"
 
 
+def test_one_mutated_ctrl_rx_does_not_make_the_genuine_stream_another():
+    """A fuzzer on the turbine's own host: one AK with the next seq and ctrl_rx = 2**31 - 1 is taken,
+    but the genuine AKs after it still continue the stream (their ctrl_rx is compared with the lower
+    of the last two)."""
+    s = AkStreams()
+    for k in range(5):
+        s.admit(100 + k, 1000 + 15 * k, 1.0 + k * PERIOD)
+    assert s.admit(105, 2**31 - 1, 1.045) == "ok"
+    assert [s.admit(106 + k, 1075 + 15 * k, 1.05 + k * PERIOD) for k in range(5)] == ["ok"] * 5
+    assert s.conflicts == 0
+
+
 def test_a_reordered_genuine_ak_is_stale_not_a_conflict():
     s = AkStreams()
     for seq, now in ((1, 1.00), (2, 1.01), (4, 1.03), (3, 1.031), (5, 1.04), (2, 1.041), (6, 1.05)):
