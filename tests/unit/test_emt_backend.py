@@ -146,13 +146,16 @@ class ConstantCurrent:
 
 def test_converter_voltage_step_against_hand_phasor():
     """+5 % on the SDViSC's converter voltage (fixed source, constant farm current): the PCC and the
-    terminal settle at the linear circuit's phasor solution."""
+    terminal settle at the linear circuit's phasor solution (nodal, the PCC's damping resistor in it)."""
     from plant.emt.model import EmtComparison  # noqa: PLC0415
 
     m = EmtComparison("visc")
     op = m.op
     m.visc = HeldSource(op.e_source)
-    m.farm = ConstantCurrent(op.i_farm)
+    from plant.emt.arrangement import R_DAMP  # noqa: PLC0415
+
+    i_farm = op.i_farm + op.v_pcc / R_DAMP  # as the model: the farm also feeds the PCC's damping resistor
+    m.farm = ConstantCurrent(i_farm)
 
     def step(run):
         run.visc.v = 1.05 * op.e_source
@@ -160,8 +163,8 @@ def test_converter_voltage_step_against_hand_phasor():
     r = m.run(0.5, events=[(0.1, step)])
     yg, yt, yf = 1 / op.z_grid, 1 / op.z_step_up, 1 / op.z_source
     # nodes pcc, terminal: Y V = I (the zero-sequence grounding path passes 1e-4 p.u. of positive sequence)
-    y = np.array([[yg + yt, -yt], [-yt, yt + yf + 1j * op.b_filter]])
-    rhs = np.array([op.e_grid * yg + op.i_farm, 1.05 * op.e_source * yf])
+    y = np.array([[yg + yt + 1.0 / R_DAMP, -yt], [-yt, yt + yf + 1j * op.b_filter]])
+    rhs = np.array([op.e_grid * yg + i_farm, 1.05 * op.e_source * yf])
     v_pcc, v_t = np.linalg.solve(y, rhs)
     last = r["t"] > r["t"][-1] - 0.02  # one cycle: the filter's LC ring (~765 Hz, no active damping) averages out
     assert abs(np.mean(r["v_pcc"][last])) == pytest.approx(abs(v_pcc), rel=0.002)
@@ -193,3 +196,16 @@ def test_ts_sampled_law_needs_more_active_damping(k_ad, at_rest):
     late = r["t"] > 0.3
     ptp = float(np.ptp(np.abs(frame.positive_sequence(r["v_t"], r["spc"]))[late]))
     assert (ptp < 0.005) == at_rest
+
+
+def test_slg_fault_clears_at_current_zero_without_ringing():
+    """F6's SLG fault cleared at 1.2 s: the switch opens at the fault current's next zero and the PCC's
+    phase voltages are back within 1 % of 1 p.u. 0.1 s later (no trapezoidal ring: R_DAMP)."""
+    from plant.emt.model import EmtComparison  # noqa: PLC0415
+
+    m = EmtComparison("none")
+    r = m.run(0.35, fault=(0.1, 0.2))
+    rms = frame.phase_rms(r["v_pcc_abc"], r["spc"])
+    during = (r["t"] > 0.15) & (r["t"] < 0.19)
+    assert np.all(rms[during, 0] < 0.01)
+    assert np.allclose(rms[r["t"] > 0.3], abs(m.op.v_pcc), atol=0.01)
