@@ -17,7 +17,10 @@ import numpy as np
 
 import plant.cases
 from plant.emt import frame
+from plant.emt.arrangement import R_DAMP
+from plant.emt.devices import FarmReplay
 from plant.emt.model import EmtComparison
+from plant.emt.operating_point import phasor_farm_current
 from report import figures
 from report.exp_grid import f6_events, iec60909_kappa, sc_first_peak_dynamic
 from report.plantcases import window
@@ -100,10 +103,14 @@ def _emt_f3(ctx: Context) -> Finding:
 
 
 # ------------------------------------------------------------------------------------------------ F6
-def f6_emt(device: str, t_end: float) -> dict:
+def f6_emt(device: str, t_end: float, replay: bool = False) -> dict:
     """F6's SLG fault (phase a at the PCC, FAULT) on the EMT circuit with ``device``; the per-phase and
-    sequence numbers of the fault window."""
+    sequence numbers of the fault window. ``replay``: the farm's injection is the phasor plant's farm current
+    of the same case (FarmReplay) instead of the EMT's aggregated grid-following source."""
     m = EmtComparison(device, fault_kind="slg")
+    if replay:
+        t_f, i_f = phasor_farm_current(device, t_end, f6_events())
+        m.farm = FarmReplay(t_f, i_f, m.op.v_pcc / R_DAMP)
     r = m.run(t_end, fault=FAULT)
     t, spc = r["t"], r["spc"]
     w = (t >= DURING[0]) & (t < DURING[1])
@@ -172,6 +179,7 @@ def sc_first_peak_scan(n: int) -> list[tuple[float, float]]:
 def _emt_f6(ctx: Context) -> dict[str, Finding]:
     t_end = 1.25 if ctx.quick else 1.4
     emt = {dev: f6_emt(dev, t_end) for dev in ("sc", "visc")}
+    rep = {dev: f6_emt(dev, t_end, replay=True) for dev in ("sc", "visc")}
     ph = f6_phasor(t_end)
     dyn_peak = sc_first_peak_dynamic()
     scan = sc_first_peak_scan(3 if ctx.quick else 8)
@@ -197,16 +205,21 @@ def _emt_f6(ctx: Context) -> dict[str, Finding]:
                 {"emt_first_peak_at_1s": s["i_first_peak"], "emt_scan": scan, "emt_worst": worst,
                  "phasor_i_initial": ph["sc"]["i_initial"], "phasor_kappa_i": k_peak, "kappa": kappa,
                  "dynamic_phasor_first_peak": dyn_peak, "rel_diff": d_a})
-    d_b = {"terminal": rel(ph["sc"]["v1_t"], s["v1_t"]), "pcc": rel(ph["sc"]["v1_pcc"], s["v1_pcc"])}
-    b = Finding(f"SC terminal V1 {ph['sc']['v1_t']:.3f} phasor, {s['v1_t']:.3f} EMT; its phases (RMS, own side) "
-                f"{_fmt3(s['v_t_phase_rms'])}; PCC V1 {ph['sc']['v1_pcc']:.3f} vs {s['v1_pcc']:.3f}, phases "
-                f"{_fmt3(ph['sc']['v_pcc_phase'])} phasor, {_fmt3(s['v_pcc_phase_rms'])} EMT",
+    d_b = {"terminal": rel(ph["sc"]["v1_t"], rep["sc"]["v1_t"]), "pcc": rel(ph["sc"]["v1_pcc"], rep["sc"]["v1_pcc"])}
+    b = Finding(f"SC terminal V1 {ph['sc']['v1_t']:.3f} phasor, {rep['sc']['v1_t']:.3f} EMT (phasor farm's current), "
+                f"{s['v1_t']:.3f} EMT (its own farm); its phases (RMS, own side) {_fmt3(rep['sc']['v_t_phase_rms'])} / "
+                f"{_fmt3(s['v_t_phase_rms'])}; PCC V1 "
+                f"{ph['sc']['v1_pcc']:.3f} vs {rep['sc']['v1_pcc']:.3f} / {s['v1_pcc']:.3f}, phases "
+                f"{_fmt3(ph['sc']['v_pcc_phase'])} phasor, {_fmt3(rep['sc']['v_pcc_phase_rms'])} / "
+                f"{_fmt3(s['v_pcc_phase_rms'])} EMT",
                 verdict_of(*d_b.values()),
-                f"{RULE} on V1 (terminal {d_b['terminal']:+.1%}, PCC {d_b['pcc']:+.1%}), means over "
+                f"{RULE} on V1 with the phasor farm's current replayed into the EMT circuit (the same farm in both: "
+                f"terminal {d_b['terminal']:+.1%}, PCC {d_b['pcc']:+.1%}); with the EMT's own aggregated farm "
+                f"{rel(ph['sc']['v1_t'], s['v1_t']):+.1%} / {rel(ph['sc']['v1_pcc'], s['v1_pcc']):+.1%}; means over "
                 f"{DURING[0]}–{DURING[1]} s. " + _why_v1(ph["z2_sc"], s["z2_pcc"])
                 + ". Paper (F6.b): the residual voltage with the SC "
                 f"> 0.7 p.u.: EMT terminal V1 {s['v1_t']:.3f}, its lowest phase {min(s['v_t_phase_rms']):.3f}",
-                {"emt": _no_trace(s), "phasor": ph["sc"], "rel_diff": d_b})
+                {"emt": _no_trace(s), "emt_phasor_farm": _no_trace(rep["sc"]), "phasor": ph["sc"], "rel_diff": d_b})
     d_c = rel(ph["visc"]["i_max"], v["i1_max"])
     c_row = Finding(f"SDViSC largest current: phasor {ph['visc']['i_max']:.3f} p.u.; EMT positive sequence "
                     f"{v['i1_max']:.3f} (mean in the fault {v['i1_during']:.3f}, negative sequence "
@@ -222,16 +235,23 @@ def _emt_f6(ctx: Context) -> dict[str, Finding]:
                     "phasor plant has no negative-sequence converter current (the converter is a current source). "
                     "Paper (F6.c): limited to 1.5 p.u.",
                     {"emt": _no_trace(v), "phasor_i_max": ph["visc"]["i_max"], "rel_diff": d_c})
-    d_d = {"terminal": rel(ph["visc"]["v1_t"], v["v1_t"]), "pcc": rel(ph["visc"]["v1_pcc"], v["v1_pcc"])}
-    d = Finding(f"SDViSC terminal V1 {ph['visc']['v1_t']:.3f} phasor, {v['v1_t']:.3f} EMT; its phases (RMS, own "
-                f"side) {_fmt3(v['v_t_phase_rms'])}; PCC V1 {ph['visc']['v1_pcc']:.3f} vs {v['v1_pcc']:.3f}, phases "
-                f"{_fmt3(ph['visc']['v_pcc_phase'])} phasor, {_fmt3(v['v_pcc_phase_rms'])} EMT",
+    rv = rep["visc"]
+    d_d = {"terminal": rel(ph["visc"]["v1_t"], rv["v1_t"]), "pcc": rel(ph["visc"]["v1_pcc"], rv["v1_pcc"])}
+    d = Finding(f"SDViSC terminal V1 {ph['visc']['v1_t']:.3f} phasor, {rv['v1_t']:.3f} EMT (phasor farm's current), "
+                f"{v['v1_t']:.3f} EMT (its own farm); its phases (RMS, own side) {_fmt3(rv['v_t_phase_rms'])} / "
+                f"{_fmt3(v['v_t_phase_rms'])}; PCC V1 "
+                f"{ph['visc']['v1_pcc']:.3f} vs {rv['v1_pcc']:.3f} / {v['v1_pcc']:.3f}, phases "
+                f"{_fmt3(ph['visc']['v_pcc_phase'])} phasor, {_fmt3(rv['v_pcc_phase_rms'])} / "
+                f"{_fmt3(v['v_pcc_phase_rms'])} EMT",
                 verdict_of(*d_d.values()),
-                f"{RULE} on V1 (terminal {d_d['terminal']:+.1%}, PCC {d_d['pcc']:+.1%}); the terminal follows the "
-                f"SDViSC's lower positive-sequence current (row EMT.F6c). " + _why_v1(ph["z2_sc"], s["z2_pcc"])
+                f"{RULE} on V1 with the phasor farm's current replayed (terminal {d_d['terminal']:+.1%}, PCC "
+                f"{d_d['pcc']:+.1%}); with the EMT's own farm {rel(ph['visc']['v1_t'], v['v1_t']):+.1%} / "
+                f"{rel(ph['visc']['v1_pcc'], v['v1_pcc']):+.1%}. With the farm the same, the terminal's difference "
+                f"is the SDViSC's: its lower positive-sequence current (row EMT.F6c, with the replay "
+                f"{rv['i1_during']:.2f}). " + _why_v1(ph["z2_sc"], s["z2_pcc"])
                 + f". Paper (F6.d): ≈ 0.6 p.u., below the SC's: EMT terminal V1 {v['v1_t']:.3f}, its lowest phase "
                 f"{min(v['v_t_phase_rms']):.3f}",
-                {"emt": _no_trace(v), "phasor": ph["visc"], "rel_diff": d_d})
+                {"emt": _no_trace(v), "emt_phasor_farm": _no_trace(rv), "phasor": ph["visc"], "rel_diff": d_d})
     _f6_figure(ctx, emt)
     ctx.numbers["emt_cpu_s"] = {dev: e["cpu_s"] for dev, e in emt.items()}
     return {"EMT.F6a": a, "EMT.F6b": b, "EMT.F6c": c_row, "EMT.F6d": d}
@@ -242,8 +262,8 @@ def _why_v1(z2_phasor: float, z2_emt: float) -> str:
             "branch; Z0: grid || the YNd windings) but aggregates the farm into one current source at the PCC: "
             f"the farm's passive network (cables, reactors) is not in its Z2 (|Z2| phasor {z2_phasor:.4f}, EMT "
             f"{z2_emt:.4f} p.u. in the SC case, {rel(z2_phasor, z2_emt):+.1%}) and its fault ride-through reacts "
-            "to the PCC's V1 instead of each turbine's terminal, so V1 at the PCC differs by that (inferred, not "
-            "separated)")
+            "to the PCC's V1 instead of each turbine's terminal. Replaying the phasor farm's current at the PCC "
+            "(FarmReplay, the same farm in both models) separates the farm's part from the rest")
 
 
 def _no_trace(x: dict) -> dict:

@@ -103,7 +103,8 @@ class FarmInjection:
         self.rating = rating_pu
         self.t = turbine or TurbineParams()
 
-    def current(self, v1: complex) -> complex:
+    def current(self, v1: complex, _t: float = 0.0) -> complex:
+        """The injection for the positive-sequence PCC voltage ``v1`` (network base)."""
         vm = max(abs(v1), 0.05)
         i_d, i_q = self.s.real / vm, -self.s.imag / vm  # along V: active, and - reactive (capacitive < 0)
         if vm < self.t.frt_v_dip:
@@ -112,3 +113,16 @@ class FarmInjection:
         i_q = float(np.clip(i_q, -i_max, i_max))
         i_d = float(np.clip(i_d, -np.sqrt(i_max**2 - i_q**2), np.sqrt(i_max**2 - i_q**2)))
         return complex(i_d, i_q) * v1 / vm
+
+
+class FarmReplay:
+    """The farm's injection replayed from a phasor-plant run: the positive-sequence current its onshore
+    transformer delivered at the PCC at each of that run's steps (linear interpolation in time), plus a
+    constant ``extra`` (the EMT circuit's damping resistor). Puts the phasor farm's own fault response into
+    the EMT circuit, so that a remaining difference is the devices' and the network's, not the farm's."""
+
+    def __init__(self, t: np.ndarray, i_farm: np.ndarray, extra: complex = 0j):
+        self.t, self.i, self.extra = np.asarray(t), np.asarray(i_farm), extra
+
+    def current(self, _v1: complex, t: float = 0.0) -> complex:
+        return complex(np.interp(t, self.t, self.i.real), np.interp(t, self.t, self.i.imag)) + self.extra

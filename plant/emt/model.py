@@ -118,7 +118,7 @@ class EmtComparison:
             if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
                 lo = k + 1 - spc
                 v1 = complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1])))
-                farm_src.attr("I_ref").set(conv(self.farm.current(v1) / np.sqrt(3.0)))
+                farm_src.attr("I_ref").set(conv(self.farm.current(v1, t[k]) / np.sqrt(3.0)))
         sim.stop()
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         out = {"t": t, "v_pcc_abc": v_pcc, "v_t_abc": v_t, "i_abc": i_dev, "spc": spc, "h": self.h,

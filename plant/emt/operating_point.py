@@ -80,3 +80,23 @@ def from_phasor_plant(device: str, **grid) -> tuple[OperatingPoint, object]:
         x0.append(complex(0.0, pp.x_onshore_step_up).imag * pp.grid.s_base_mva / pp.onshore_unit_mva)
     op.x0_ground = _par(*x0)
     return op, p
+
+
+def phasor_farm_current(device: str, t_end: float, events: list, **grid) -> tuple[np.ndarray, np.ndarray]:
+    """(t, I_farm(t)): the current the phasor plant's onshore transformer delivers at the PCC (network
+    base, positive sequence) at every step of a run of ``device``'s set-up with ``events``, for
+    :class:`plant.emt.devices.FarmReplay`."""
+    _, p = from_phasor_plant(device, **grid)
+    net = p.net
+    ev = sorted(events, key=lambda e: e[0])
+    ts, cur = [], []
+    n = int(round(t_end / p.step_s))
+    while p.k < n:
+        while ev and ev[0][0] <= p.t + 0.5 * p.step_s:
+            ev.pop(0)[1](p)
+        _, _, aux = p._eval_cached()
+        v = p._full_v(aux)
+        ts.append(p.t)
+        cur.append((v[net.on_hv] - v[net.pcc]) / net.z_ontr())
+        p.step()
+    return np.array(ts), np.array(cur)
