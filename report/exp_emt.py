@@ -79,9 +79,9 @@ def _emt_f3(ctx: Context) -> Finding:
     d = {dev: rel(p["rise"], e["rise"]) for dev, (e, p) in res.items()}
     names = {"sc": "SC", "visc": "SDViSC"}
     fig, axes = figures.new(1, height_per_row=3.2)
-    for dev, (e, p) in res.items():
-        axes[0, 0].plot(p["t"], p["v_t"], lw=0.9, label=f"{names[dev]} terminal V1, phasor")
-        axes[0, 0].plot(e["t"], e["v_t"], lw=0.9, ls="--", label=f"{names[dev]} terminal V1, EMT (DPsim)")
+    for (dev, (e, p)), col in zip(res.items(), ("C0", "C1")):
+        axes[0, 0].plot(p["t"], p["v_t"], col, lw=0.9, label=f"{names[dev]} terminal V1, phasor")
+        axes[0, 0].plot(e["t"], e["v_t"], col, lw=1.2, ls="--", label=f"{names[dev]} terminal V1, EMT (DPsim)")
     axes[0, 0].axhline(1.035, color="0.5", ls=":", lw=0.8, label="paper: ≈ 1.035")
     axes[0, 0].set_ylabel("V1 [p.u.]")
     axes[0, 0].set_xlabel("t [s] (AVR / V* 1.00 → 1.04 at 1 s)")
