@@ -9,6 +9,8 @@ tests/unit/test_emt_frame.py. The common frame rotates at omega0 = 2 pi 50 Hz fr
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from sdvisc.vocabulary import OMEGA0
@@ -25,6 +27,20 @@ def park(abc: np.ndarray, t: np.ndarray | float) -> np.ndarray:
     abc = np.asarray(abc, dtype=float)
     space = (2.0 / 3.0) * (abc[..., 0] + A * abc[..., 1] + A * A * abc[..., 2])
     return space / PEAK_PER_PU * np.exp(-1j * OMEGA0 * np.asarray(t))
+
+
+_K = 2.0 / 3.0 / PEAK_PER_PU
+_S3 = np.sqrt(3.0) / 2.0
+
+
+def park_sample(a: float, b: float, c: float, t: float) -> complex:
+    """:func:`park` of one sample in plain Python (the stepped run's per-step measurement; ~10x cheaper
+    than the numpy call on three numbers)."""
+    re = a - 0.5 * (b + c)
+    im = _S3 * (b - c)
+    w = OMEGA0 * t
+    co, si = math.cos(w), math.sin(w)
+    return complex(_K * (re * co + im * si), _K * (im * co - re * si))
 
 
 def positive_sequence(x_park: np.ndarray, samples_per_cycle: int) -> np.ndarray:

@@ -25,6 +25,8 @@ def test_park_of_balanced_and_negative_sequence():
     t = np.linspace(0.0, 0.04, 77)
     v = 0.93 * np.exp(0.4j)
     assert np.allclose(frame.park(frame.phasor_to_abc(v, t), t), v, atol=1e-12)
+    abc = frame.phasor_to_abc(v, t) + 0.1  # with a zero sequence, dropped by both
+    assert np.allclose([frame.park_sample(*row, tk) for row, tk in zip(abc, t)], frame.park(abc, t), atol=1e-12)
     neg = frame.PEAK_PER_PU * np.real(np.multiply.outer(0.3 * np.exp(1j * OMEGA0 * t), [1.0, frame.A, frame.A ** 2]))
     assert np.allclose(frame.park(neg, t), 0.3 * np.exp(-2j * OMEGA0 * t), atol=1e-12)
 
