@@ -50,6 +50,15 @@ def give_children_default_signals() -> list[str]:
     return changed
 
 
+def shield_signals() -> dict:
+    """While a teardown runs: SIGINT, SIGTERM and SIGHUP do nothing (a second Ctrl-C raised
+    KeyboardInterrupt inside ``net.stop()`` and left the bridges; the teardown is bounded, so
+    nothing waits on it for ever). Returns the handlers to put back. Main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    return {s: signal.signal(s, _still_ignored) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)}
+
+
 def default_signals() -> None:
     """``preexec_fn``: the child's :data:`SIGNALS` at their defaults, no signal blocked."""
     for sig in SIGNALS:

@@ -20,7 +20,7 @@ from pathlib import Path
 from types import SimpleNamespace
 
 from host_tools import cleanup, cpu_split, ovs_revalidation
-from host_tools.child_signals import bound_node_stops, give_children_default_signals
+from host_tools.child_signals import bound_node_stops, give_children_default_signals, shield_signals
 from scenarios import configs, switch_links, switch_ports
 from scenarios.calibration_cache import after_run, choose_time_scale
 from scenarios.cluster_run import ClusterRun, set_link_by_shell
@@ -386,10 +386,11 @@ def run_scenario(scenario: Scenario, out_dir: str | Path, *, cli: bool = False, 
             run.play()
             completed = True
     finally:
+        shielded = shield_signals()  # a second Ctrl-C or SIGTERM must not cut the (bounded) teardown short
         try:
             run.teardown()
         finally:
-            for s, handler in previous.items():
+            for s, handler in {**shielded, **previous}.items():
                 signal.signal(s, handler)
             unmark()
             if run.session is not None:

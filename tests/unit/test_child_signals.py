@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import time
 
 from host_tools.child_signals import bound_node_stops, default_signals, end_group
 
@@ -101,3 +102,20 @@ def test_a_node_whose_shell_ignores_sighup_is_stopped_despite_mininets_unbounded
         if node.shell.poll() is None:
             node.shell.kill()
             node.shell.wait(timeout=5)
+
+
+def test_a_signal_during_a_shielded_teardown_does_not_cut_it_short():
+    import os
+
+    from host_tools.child_signals import shield_signals
+
+    before = signal.getsignal(signal.SIGINT)
+    shielded = shield_signals()
+    try:
+        os.kill(os.getpid(), signal.SIGINT)  # would raise KeyboardInterrupt
+        os.kill(os.getpid(), signal.SIGTERM)  # would end the process
+        time.sleep(0.05)
+    finally:
+        for s, handler in shielded.items():
+            signal.signal(s, handler)
+    assert signal.getsignal(signal.SIGINT) is before
