@@ -225,6 +225,13 @@ class WppParams:
     k_p: float = 0.0
     """Proportional gain K_PWPx, p.u. Q / p.u. V [assumed: 0, an integral controller as before issue 39;
     K_PWPx is project-dependent (the Dynawo test's 0.5 is for its reactive power mode)]."""
+    k_i_q: float = 1.0
+    """Integral gain of the reactive-power mode, p.u. Q / (p.u. Q s) [assumed: the Q loop closes through
+    the 0.1 s cycle, the 0.1 s lag and the 0.1 s delay (≈ 0.3 s in all): crossover 1 rad/s keeps ≈ 70°
+    of phase margin, where the voltage mode's 10 made it oscillate at ≈ 0.6 Hz (issue 39's sensitivity
+    study); IEC 61400-27-1 leaves K_IWPx project-dependent]."""
+    k_p_q: float = 0.0
+    """Proportional gain of the reactive-power mode [assumed: 0, an integral controller as the voltage mode]."""
     q_max: float = 0.33
     """Reactive limit of the order (both signs; also X_KIWPxmax, the integrator's), p.u. [src: ENTSO-E RfG
     / typical grid codes: Q/P_max = 0.33 at full power (power factor 0.95)]."""

@@ -116,9 +116,14 @@ class Plant(Commands, RightHandSide):
         return v, i, vall
 
     def _settle_wpp(self) -> None:
-        """The plant controller's steady-state order: Q* with |V_pcc| = v_ref - droop Q* (brentq on
-        the load flow), or its limit where none within the limits."""
+        """The plant controller's steady-state order: in voltage mode Q* with |V_pcc| = v_ref - droop Q*
+        (brentq on the load flow), or its limit where none within the limits; in reactive-power mode q_ref."""
         wp = self.params.wpp
+        if wp.mode == "reactive_power":  # the order settles at its reference (e = q_ref - q = 0)
+            q = float(np.clip(wp.q_ref, -wp.q_max, wp.q_max))
+            self.tb.q_wpp[:] = q * self._wpp_mask
+            self.wpp.settle_at(q, self.t, abs(self._load_flow()[2][self.net.pcc]))
+            return
 
         def mismatch(q: float) -> float:
             self.tb.q_wpp[:] = q * self._wpp_mask

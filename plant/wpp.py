@@ -90,9 +90,14 @@ class WppController:
         p = self.p
         return p.v_ref - u - p.droop * q if p.mode == "voltage" else p.q_ref - q
 
+    def _gains(self) -> tuple[float, float]:
+        """(K_PWPx, K_IWPx) of the present mode: the Q loop has its own (WppParams.k_p_q, k_i_q)."""
+        p = self.p
+        return (p.k_p_q, p.k_i_q) if p.mode == "reactive_power" else (p.k_p, p.k_i)
+
     def order(self, e: float) -> float:
         """The PI's output for the error ``e`` with the present integrator (clipped)."""
-        return float(np.clip(self.p.k_p * e + self.x, -self.p.q_max, self.p.q_max))
+        return float(np.clip(self._gains()[0] * e + self.x, -self.p.q_max, self.p.q_max))
 
     def _measure(self, now: float, v_pcc: float) -> None:
         if self.t_meas is None:  # not settled: the filters start at the first measurement
@@ -113,10 +118,11 @@ class WppController:
         if self.frozen:  # integrator and output held during the dip
             return
         e = self.error(self.u_f, self.q_f)
-        y_unclipped = p.k_p * e + self.x
+        k_p, k_i = self._gains()
+        y_unclipped = k_p * e + self.x
         at_limit = abs(y_unclipped) >= p.q_max and y_unclipped * e > 0.0
         if not at_limit:
-            self.x += p.k_i * e * h
+            self.x += k_i * e * h
         self.q_pi = self.order(e)
         lagged = _lag(self.q, self.q_pi, h, p.t_xfv_s)
         step = p.dq_max_per_s * h if math.isfinite(p.dq_max_per_s) else math.inf

@@ -56,6 +56,25 @@ def test_farm_starts_in_the_plant_controllers_steady_state():
     assert np.max(np.abs(r["v_pcc"] - v0)) < 1e-5 and np.max(np.abs(r["q_wt"][:, 0] - r["q_wt"][0, 0])) < 1e-4
 
 
+def test_reactive_power_mode_starts_at_its_reference_and_holds_it():
+    """IEC reactive-power mode (Q* = q_ref): the farm starts at q_ref, not at the voltage mode's droop
+    order, and stays there without an event (the voltage mode's k_i 10 made this loop oscillate at
+    ≈ 0.6 Hz through the 0.3 s of cycle, lag and delay); after a grid EMF step it returns to q_ref."""
+    pp = PlantParams()
+    pp.wpp = WppParams(mode="reactive_power", q_ref=0.05)
+    p = Plant(pp)
+    assert p.tb.q_wpp[0] == pytest.approx(0.05, abs=1e-12)
+    r = p.run_offline(3.0, record_every=50)
+    assert np.ptp(r["v_pcc"]) < 1e-5
+    pp2 = PlantParams()
+    pp2.wpp = WppParams(mode="reactive_power", q_ref=0.0)
+    p2 = Plant(pp2)
+    r2 = p2.run_offline(8.0, events=[(0.5, lambda q: q.set_grid_emf(q.params.grid.e_grid * 0.97))], record_every=50)
+    late = r2["t"] > 6.0
+    assert np.max(np.abs(r2["q_wt"][late, 0])) < 0.01  # back at its reference, no oscillation left
+    assert np.ptp(r2["v_pcc"][late]) < 1e-3
+
+
 def test_wpp_raises_the_pcc_after_a_grid_voltage_drop():
     """Grid EMF -0.05: with the controller (its turbine Q limitation off) the PCC returns to within
     droop x Q of its reference; without the controller it stays down by about the drop; with the Q

@@ -95,7 +95,7 @@ def test_turbine_q_limitation_over_terminal_voltage():
 
 
 def test_reactive_power_mode_goes_to_its_reference():
-    c = WppController(bare(mode="reactive_power", q_ref=0.2, k_i=2.0))
+    c = WppController(bare(mode="reactive_power", q_ref=0.2, k_i_q=2.0))
     c.settle_at(0.0, 0.0, v_pcc=1.0)
     run(c, 0.01, 10.0, lambda _t: 1.0)
     assert c.q_turbines == pytest.approx(0.2, abs=1e-6)
