@@ -111,6 +111,8 @@ def _f7(ctx: Context) -> dict[str, Finding]:
     found["F7.b"] = _boundary_finding(bounds["SC"]["stable"], bounds["SC"]["damped"], 1.58, ev["SC"],
                                       below=val["none"]["stable"])
     found["F7.c"] = _f7c(val, ev)
+    for claim, case, paper in (("F7.a", "none", 2.04), ("F7.b", "SC", 1.58)):
+        found[claim].measured["printed"] = _f7_printed(ctx.numbers[f"F7 second look {case}"], val[case]["stable"], case, paper)
     ctx.notes.append(f"{CRITERION}; bisection on SCR in [{SCR_RANGE[0]:g}, {SCR_RANGE[1]:g}] to {xtol}, {t_end:g} s "
                      f"runs. The paper's SDViSC case is {SDVISC[VIRTUAL_FRICTION_DEFAULT]!r} "
                      f"({FRICTION[VIRTUAL_FRICTION_DEFAULT]}: VIRTUAL_FRICTION_DEFAULT in report/exp_weak.py, with "
@@ -119,6 +121,19 @@ def _f7(ctx: Context) -> dict[str, Finding]:
                         "boundaries can come out higher than in the full report." if ctx.quick else ""))
     _f7_figure(ctx, traces)
     return found
+
+
+def _f7_printed(second: dict, step: float | None, case: str, paper: float) -> dict:
+    """The printed-magnitude entry of F7.a/b: the step boundary (the caption: "changing the ... SCR of
+    the onshore grid at 1 s") is the reading; the other structures beside it with their relative error —
+    a ramp the text does not describe, so a hit there is at most "consistent" (issue 39)."""
+    def beside(x: float | None) -> str:
+        return _fmt(x) if x is None else f"{x:.3f} ({(x - paper) / paper:+.0%})"
+    return {"reading": f"SCR step at 1 s, {case}: the boundary below which the farm is not stable (IEC plant controller)",
+            "value": _fmt(step),
+            "alternatives": {"step, plant controller before issue 39": beside(second["step_boundary_legacy_wpp"]),
+                             "slow ramp (not the caption's step), IEC controller": beside(second["ramp_boundary_iec"]),
+                             "slow ramp, controller before issue 39": beside(second["ramp_boundary_legacy_wpp"])}}
 
 
 def _above(boundary: float | None, static: float) -> bool:
