@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from plant.linearise import jacobian
 from report.stability import LAST_S, PTP_DAMPED, V_NORMAL, stability
 
 T_EVENT = 1.0
@@ -139,21 +140,10 @@ def jacobian_modes(plant, state: np.ndarray, band_hz=OSC_BAND_HZ) -> dict:
     """The least-damped oscillatory mode (``band_hz``) and the largest real part of the Jacobian of
     ``plant``'s right-hand side at ``state`` (central differences, relative step 1e-6); the plant's
     state is restored after."""
-    keep = plant.state_real().copy()
-    slow = plant.tb.slow
     y0 = np.asarray(state, dtype=float)
-    n = len(y0)
-    jac = np.empty((n, n))
+    jac = jacobian(plant, y0)
     with np.errstate(all="ignore"):
-        for k in range(n):
-            h = 1e-6 * max(1.0, abs(y0[k]))
-            yp, ym = y0.copy(), y0.copy()
-            yp[k] += h
-            ym[k] -= h
-            jac[:, k] = (plant.rhs_real(0.0, yp) - plant.rhs_real(0.0, ym)) / (2 * h)
         residual = float(np.max(np.abs(plant.rhs_real(0.0, y0))))
-    plant.set_state_real(keep)
-    plant.tb.slow = slow
     eig = np.linalg.eigvals(jac)
     hz = np.abs(eig.imag) / (2 * np.pi)
     osc = eig[(hz >= band_hz[0]) & (hz <= band_hz[1])]

@@ -6,6 +6,7 @@ import pytest
 
 from plant import turbine_laws as laws
 from plant.cases import COMPARISON_UNIT, comparison_visc_plant, sc_plant
+from plant.linearise import jacobian
 from plant.params import PlantParams, WppParams
 from plant.sim import Plant
 from plant.wpp import WppController, legacy_params
@@ -145,16 +146,7 @@ def test_pll_and_current_loop_eigenvalues_against_the_small_signal_model():
     pp = PlantParams(topology="single", sc_connected=False)
     pp.grid.scr = 1000.0
     p = Plant(pp, n_turbines=1, slow_every=1, jit=False)
-    y0 = p.state_real()
-    n = len(y0)
-    jac = np.empty((n, n))
-    for k in range(n):
-        h = 1e-7 * max(1.0, abs(y0[k]))
-        yp, ym = y0.copy(), y0.copy()
-        yp[k] += h
-        ym[k] -= h
-        jac[:, k] = (p.rhs_real(0.0, yp) - p.rhs_real(0.0, ym)) / (2 * h)
-    eig = np.linalg.eigvals(jac)
+    eig = np.linalg.eigvals(jacobian(p, p.state_real(), rel_step=1e-7))
     tp = pp.turbine
     # current loop: (l_f/w0) s i = k_pc e + k_ic xi - r_f i  ->  s^2 + w0 (k_pc + r_f)/l_f s + w0 k_ic/l_f = 0
     current = np.roots([1.0, OMEGA0 * (tp.kpc + tp.rf) / tp.lf, OMEGA0 * tp.kic / tp.lf])

@@ -29,6 +29,7 @@ import numpy as np
 import pytest
 
 from plant.cases import comparison_visc_plant
+from plant.linearise import jacobian
 from sdc_unit.law_kernels import IX_DW
 from sdc_unit.params import ViscParams
 
@@ -41,16 +42,7 @@ def _variant(scale: float) -> ViscParams:
 
 
 def _jacobian(plant, y0: np.ndarray, eps: float = 1e-6) -> np.ndarray:
-    n = y0.size
-    jac = np.empty((n, n))
-    for k in range(n):
-        y = y0.copy()
-        y[k] += eps
-        fp = plant.rhs_real(0.0, y)
-        y[k] -= 2.0 * eps
-        jac[:, k] = (fp - plant.rhs_real(0.0, y)) / (2.0 * eps)
-    plant.set_state_real(y0)
-    return jac
+    return jacobian(plant, y0, fixed_step=eps)
 
 
 def swing_damping(scales=(0.0, 1.0, -1.0), scr: float = SCR,
