@@ -24,6 +24,7 @@ import numpy as np
 from plant.emt import arrangement, frame
 from plant.emt.dpsim_env import dpsim
 from plant.emt.operating_point import from_phasor_plant
+from sdvisc.jsonlines import write_json_atomic
 from sdvisc.vocabulary import OMEGA0
 
 XQ1, TQ01 = 0.5, 0.5  # [assumed] q-axis transient data the DPsim models need
@@ -111,11 +112,9 @@ def main() -> None:
     args = ap.parse_args()
     out = {"what": "DPsim 1.4.0 reduced-order machines, three-phase fault at the PCC (benchmarks/emt_dpsim_machine_probe.py)",
            "results": {order: run(order) for order in ("4", "6a", "6b")}}
-    text = json.dumps(out, indent=1)
-    print(text)
+    print(json.dumps(out, indent=1))
     if args.out:
-        with open(args.out, "w") as f:
-            f.write(text + "\n")
+        write_json_atomic(args.out, out)
 
 
 if __name__ == "__main__":

@@ -28,6 +28,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from plant.emt import arrangement  # noqa: E402
 from plant.emt.dpsim_env import dpsim  # noqa: E402
 from plant.emt.model import EmtComparison  # noqa: E402
+from sdvisc.jsonlines import write_json_atomic
 
 SIM_S = 1.0
 
@@ -73,11 +74,9 @@ def main() -> None:
     out = {"what": "EMT backend CPU per simulated second (benchmarks/emt_step_cost.py)",
            "date": datetime.date.today().isoformat(), "host": platform.node(), "cpus": os.cpu_count(),
            "note": "nice 10, 2 cores shared with other jobs; process CPU of this process only", "results": res}
-    text = json.dumps(out, indent=1)
-    print(text)
+    print(json.dumps(out, indent=1))
     if args.out:
-        with open(args.out, "w") as f:
-            f.write(text + "\n")
+        write_json_atomic(args.out, out)
 
 
 if __name__ == "__main__":
