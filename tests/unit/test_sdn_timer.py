@@ -8,7 +8,7 @@ from __future__ import annotations
 import copy
 import random
 
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
 from sdn_app.logic import Controller
@@ -17,6 +17,7 @@ from tests.unit.test_sdn_liveness import _ak, _hb, _serving
 from tests.unit.test_sdn_logic import make_config
 
 END_S = 1.6
+EDGE_S = 0.01  # s: five ticks; decisions nearer the window's end than this are not compared
 DECISIONS = {"dr", "sdc_dead", "sdc_failover", "sdc_suspect", "dr_awaiting_sdc", "no_path", "failover_unavailable"}
 
 
@@ -91,18 +92,27 @@ def _latency(event: dict) -> float:
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@example(fault="path_silent", t_fault=1.1171875, seed=86)  # a decision at the window's end (see below)
 @given(fault=st.sampled_from(["none", "path_reported", "path_silent", "sdc_kill"]),
        t_fault=st.floats(1.1, 1.3), seed=st.integers(0, 2**16))
 def test_the_sleeping_timer_decides_what_the_2_ms_timer_decides_within_one_tick(fault, t_fault, seed):
     arrivals = _arrivals(fault, t_fault, seed)
     every_tick, n_every = _run(arrivals, follow_wait=False)
     sleeping, n_sleeping = _run(arrivals, follow_wait=True, check_bound=True)
-    assert [e["type"] for e in sleeping] == [e["type"] for e in every_tick]
-    if every_tick:
+    # the decisions of the 2 ms timer made well before the window's end; the sleeping timer's come up to a
+    # tick later each (and a later one's cause with them), so near END_S one of them can fall past the
+    # window: compared are the 2 ms timer's decisions before END_S - EDGE_S, in order, and the sleeping
+    # timer may have no other decision before that (seen: path_silent, t_fault 1.1171875, seed 86 — the
+    # third DR at 1.598 with the 2 ms timer, ≈ 1.6007 asleep, after END_S)
+    inside = [e for e in every_tick if e["t_wall"] < END_S - EDGE_S]
+    assert [e["type"] for e in sleeping[:len(inside)]] == [e["type"] for e in inside]
+    assert all(e["t_wall"] >= END_S - 2 * EDGE_S for e in sleeping[len(inside):]), (inside, sleeping)
+    if every_tick and inside:
         assert abs(every_tick[0]["t_wall"] - sleeping[0]["t_wall"]) <= TICK_S + 1e-9
-    for a, b in zip(every_tick, sleeping):  # (a later decision's cause may itself have moved by a tick)
+    for a, b in zip(inside, sleeping):  # (a later decision's cause may itself have moved by a tick)
         assert abs(_latency(a) - _latency(b)) <= TICK_S + 1e-9, (a, b)
     if fault == "none":
         assert every_tick == [] and n_sleeping <= n_every / 3  # idle: ~100 wake-ups a second, not 500
     else:
         assert every_tick, "the fault was not detected at all"
+
