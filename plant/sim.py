@@ -119,11 +119,14 @@ class Plant(Commands, RightHandSide):
         """The plant controller's steady-state order: in voltage mode Q* with |V_pcc| = v_ref - droop Q*
         (brentq on the load flow), or its limit where none within the limits; in reactive-power mode q_ref."""
         wp = self.params.wpp
-        if wp.mode == "reactive_power":  # the order settles at its reference (e = q_ref - q = 0)
-            q = float(np.clip(wp.q_ref, -wp.q_max, wp.q_max))
-            self.tb.q_wpp[:] = q * self._wpp_mask
-            self.wpp.settle_at(q, self.t, abs(self._load_flow()[2][self.net.pcc]))
-            return
+        q = float(np.clip(wp.q_ref, -wp.q_max, wp.q_max)) if wp.mode == "reactive_power" else self._droop_order()
+        self.tb.q_wpp[:] = q * self._wpp_mask
+        self.wpp.settle_at(q, self.t, abs(self._load_flow()[2][self.net.pcc]))
+
+    def _droop_order(self) -> float:
+        """Voltage mode's steady order: Q* with |V_pcc| = v_ref - droop Q* (brentq on the load flow),
+        or its limit where none lies within the limits."""
+        wp = self.params.wpp
 
         def mismatch(q: float) -> float:
             self.tb.q_wpp[:] = q * self._wpp_mask
@@ -135,13 +138,10 @@ class Plant(Commands, RightHandSide):
         while True:
             q = min(q + WPP_SEARCH_STEP, wp.q_max) if direction > 0 else max(q - WPP_SEARCH_STEP, -wp.q_max)
             if mismatch(q) * direction > 0.0:
-                q = brentq(mismatch, min(q_last, q), max(q_last, q), xtol=1e-12)
-                break
+                return brentq(mismatch, min(q_last, q), max(q_last, q), xtol=1e-12)
             if abs(q) >= wp.q_max:
-                break  # at its limit
+                return q  # at its limit
             q_last = q
-        self.tb.q_wpp[:] = q * self._wpp_mask
-        self.wpp.settle_at(q, self.t, abs(self._load_flow()[2][self.net.pcc]))
 
     def _init_steady_state(self) -> None:
         net, g = self.net, self.params.grid
