@@ -49,7 +49,7 @@ from sdc_throughput import N_SAMPLES, TS, machine, realistic_measurements  # noq
 from sdc_unit.service import SdcService  # noqa: E402
 from sdvisc import wire  # noqa: E402
 from sdvisc.config import SdcConfig  # noqa: E402
-from sdvisc.vocabulary import MEAS_FIELDS  # noqa: E402
+from sdvisc.vocabulary import BLANK_REQUEST_PARAMS, MEAS_FIELDS  # noqa: E402
 
 FARM_TURBINES = 50
 """The runner sizes an SDC for every turbine host of the topology (5 x 10 on the farm network)."""
@@ -71,8 +71,8 @@ class MemorySocket:
 
 
 def _request(wid: int, req_id: int) -> bytes:
-    values = {"req_id": req_id, "cmd": int(wire.Command.START_INSTANCE), "wt": wid, "sdc_ip": 0, "mask": 0,
-              "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0}
+    values = {"req_id": req_id, "cmd": int(wire.Command.START_INSTANCE), "wt": wid, "sdc_ip": 0,
+              **BLANK_REQUEST_PARAMS}
     return wire.encode(wire.MsgType.REQUEST, values, header=wire.Header(req_id, 0, 0))
 
 

@@ -24,6 +24,7 @@ from sdn_app import flows as fl  # noqa: E402
 from sdn_app.logic import Controller  # noqa: E402
 from sdvisc import wire  # noqa: E402
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, AppConfig  # noqa: E402
+from sdvisc.vocabulary import BLANK_REQUEST_PARAMS  # noqa: E402
 from topologies import topos  # noqa: E402
 from topologies.base import describe  # noqa: E402
 
@@ -37,7 +38,7 @@ def farm_controller() -> Controller:
 
 def request(wt: str, req_id: int) -> bytes:
     values = {"req_id": req_id, "cmd": int(wire.Command.VISC_ON), "wt": wire.turbine_id(*wire.parse_turbine(wt)),
-              "sdc_ip": 0, "mask": 0, "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0}
+              "sdc_ip": 0, **BLANK_REQUEST_PARAMS}
     return wire.encode(wire.MsgType.REQUEST, values, header=wire.Header(req_id, 0, 0))
 
 

@@ -26,8 +26,12 @@ import sys
 import time
 from pathlib import Path
 
+from sdc_unit.params import ViscParams
 from sdvisc import wire
+from sdvisc.vocabulary import VISC_PARAMS, param_word
 
+PARAM_TEMPLATE = {name: param_word(name, getattr(ViscParams(), name)) for name in VISC_PARAMS}
+"""Plausible run-time parameter words of a REQUEST: the ViSC law's defaults."""
 KINDS = ("random", "truncated", "bitflip", "extreme")
 EXTREME_WORDS = (0x80000000, 0x7FFFFFFF, 0, 0xFFFFFFFF, 0x7FC00000, 0x7F800000, 0xFF800000, 0x7F7FFFFF)
 TARGET_TYPES = {
@@ -50,8 +54,7 @@ def template(mtype: wire.MsgType, wid: int, seq: int, t_sim: float, rng: random.
         return {"wt": wid, "seq": seq, "ak": rng.choice((0, 1)), "ctrl_rx": seq, "ctrl_age_ms": rng.uniform(0, 100)}
     if mtype == wire.MsgType.REQUEST:
         return {"req_id": rng.randint(1, 1000), "cmd": int(rng.choice(list(wire.Command))), "wt": wid,
-                "sdc_ip": wire.ip_to_i32("10.0.0.21"), "mask": rng.randint(0, 63), "h": 3.0, "d": 0.0, "m_q": 0.02,
-                "v_ref": 1.0, "q_ref": 0.0, "supp": 0}
+                "sdc_ip": wire.ip_to_i32("10.0.0.21"), **PARAM_TEMPLATE, "mask": rng.randint(0, 2 ** len(PARAM_TEMPLATE) - 1)}
     if mtype == wire.MsgType.REPLY:
         return {"req_id": rng.randint(1, 1000), "status": 0, "wt": wid, "cmd": int(wire.Command.VISC_ON), "detail": 0}
     return {"sdc_id": rng.choice((1, 2)), "seq": seq, "n_instances": 1, "t_wall": 0.0}

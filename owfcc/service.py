@@ -38,7 +38,7 @@ from pathlib import Path
 from sdvisc import wire
 from sdvisc.config import OwfccConfig, ScheduledCommand, service_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
-from sdvisc.vocabulary import VISC_PARAMS
+from sdvisc.vocabulary import BLANK_REQUEST_PARAMS, VISC_PARAMS, param_word
 
 COMMANDS = {"visc_on": wire.Command.VISC_ON, "visc_off": wire.Command.VISC_OFF,
             "set_params": wire.Command.SET_PARAMS}
@@ -54,11 +54,11 @@ def request_values(req_id: int, command: dict) -> dict:
     """REQUEST fields for one stdin command (unknown parameter names raise ValueError)."""
     cmd = COMMANDS[command["cmd"]]
     values = {"req_id": req_id, "cmd": int(cmd), "wt": wire.turbine_id(*wire.parse_turbine(command["wt"])),
-              "sdc_ip": 0, "mask": 0, "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0}
+              "sdc_ip": 0, **BLANK_REQUEST_PARAMS}
     for name, value in (command.get("params") or {}).items():
         if name not in PARAM_BITS:
             raise ValueError(f"unknown ViSC parameter {name!r}; known: {sorted(PARAM_BITS)}")
-        values[name] = int(value) if name == "supp" else float(value)
+        values[name] = param_word(name, value)
         values["mask"] |= int(PARAM_BITS[name])
     return values
 

@@ -43,7 +43,10 @@ from sdvisc.config import (
     TimeScale,
     TurbineName,
 )
-from sdvisc.vocabulary import ONSHORE_CLUSTER
+from sdvisc.vocabulary import ONSHORE_CLUSTER, VISC_PARAMS
+
+RuntimeParamName = Literal[tuple(VISC_PARAMS)]
+"""A run-time parameter a REQUEST can set (h, d, m_q, v_ref, q_ref, supp: sdvisc.wire_layouts.RUNTIME_PARAM_WORDS)."""
 
 
 class Strict(BaseModel):
@@ -169,7 +172,7 @@ class _Event(Strict):
 class ViscOn(_Event):
     do: Literal["visc_on"]
     wt: TurbineName
-    params: dict[Literal["h", "d", "m_q", "v_ref", "q_ref", "supp"], float] = Field(default_factory=dict)
+    params: dict[RuntimeParamName, float] = Field(default_factory=dict)
 
 
 class ViscOff(_Event):
@@ -180,7 +183,7 @@ class ViscOff(_Event):
 class SetViscParams(_Event):
     do: Literal["set_params"]
     wt: TurbineName
-    params: dict[Literal["h", "d", "m_q", "v_ref", "q_ref", "supp"], float]
+    params: dict[RuntimeParamName, float]
 
 
 class LinkDown(_Event):

@@ -31,7 +31,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from sdvisc import wire
+from sdvisc import vocabulary, wire
 from sdvisc.vocabulary import MEAS_FIELDS, VISC_PARAMS
 
 MEAS_ABS_MAX_PU = 100.0
@@ -41,15 +41,10 @@ T_SIM_MAX_S = 1e7
 CONFIRM_WINDOW = 32
 """A jump is confirmed by a later datagram at most this many samples after it."""
 
-PARAM_LIMITS: dict[str, tuple[float, float]] = {
-    "h": (1e-3, 100.0),     # inertia constant, s
-    "d": (0.0, 1e4),        # damping, p.u.
-    "m_q": (0.0, 10.0),     # reactive-power droop, p.u.
-    "v_ref": (0.5, 1.5),    # voltage reference, p.u.
-    "q_ref": (-10.0, 10.0),  # reactive-power reference, p.u.
-}
+PARAM_LIMITS = vocabulary.PARAM_LIMITS
 """Accepted range of each parameter a REQUEST can set (only the bits of its ``mask`` count; ``supp``
-is a bit field, any value is a valid one)."""
+is a bit field, any value is a valid one): declared with the wire's words
+(:data:`sdvisc.wire_layouts.RUNTIME_PARAM_WORDS`)."""
 
 
 def t_sim_tolerance(t_sim: float, step_s: float) -> float:

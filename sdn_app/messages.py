@@ -8,7 +8,7 @@ from os_ken.lib.packet import ethernet, ipv4, packet, udp
 
 from sdn_app import flows as fl
 from sdn_app.state import SdnState
-from sdvisc import wire
+from sdvisc import vocabulary, wire
 
 ETH_TYPE_LEARN = 0x88B5  # IEEE local experimental ethertype: frames that only teach L2 switches
 
@@ -86,7 +86,7 @@ class Messenger:
         st = self.state
         values = {"req_id": self.request_seq + 1, "cmd": int(cmd), "wt": wid,
                   "sdc_ip": wire.ip_to_i32(st.host(sdc or st.config.primary_sdc).ip),
-                  "mask": 0, "h": 0.0, "d": 0.0, "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0}
+                  **vocabulary.BLANK_REQUEST_PARAMS}
         if params:
             values.update(params)
         return self.packet_to(host, port, wire.encode(wire.MsgType.REQUEST, values, header=self._header(now)))

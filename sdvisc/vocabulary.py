@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 
 from sdvisc.wire import LAYOUTS, MsgType, ParamMask
+from sdvisc.wire_layouts import RUNTIME_PARAM_WORDS
 
 MEAS_FIELDS: tuple[str, ...] = tuple(f.name for f in LAYOUTS[MsgType.MEAS] if f.kind == "f32" and f.name != "t_sim")
 """What a turbine measures, in wire order: ``v_d, v_q, i_d, i_q, p, q, v_dc, omega_meas`` (p.u.)."""
@@ -25,6 +26,21 @@ VISC_PARAMS: dict[str, int] = {m.name.lower(): int(m) for m in ParamMask}
 
 REQUEST_PARAM_WORDS: tuple[str, ...] = ("mask", *VISC_PARAMS)
 """The REQUEST words that carry parameters (the mask, then each parameter)."""
+
+PARAM_LIMITS: dict[str, tuple[float, float]] = {p.name: (p.lo, p.hi) for p in RUNTIME_PARAM_WORDS if p.lo is not None}
+"""Accepted range of each run-time parameter a REQUEST can set (bit fields such as ``supp``: any value)."""
+
+PARAM_UNITS: dict[str, str] = {p.name: p.unit for p in RUNTIME_PARAM_WORDS}
+"""Unit of each run-time parameter word (a law's run-time parameter must be declared in the same unit)."""
+
+BLANK_REQUEST_PARAMS: dict[str, float | int] = {"mask": 0, **{p.name: 0 if p.kind == "i32" else 0.0
+                                                             for p in RUNTIME_PARAM_WORDS}}
+"""The parameter words of a REQUEST that sets none (mask 0, every word zero): copy it, then set."""
+
+
+def param_word(name: str, value) -> float | int:
+    """``value`` as the REQUEST word ``name`` carries it (int for an i32 word such as ``supp``)."""
+    return int(value) if BLANK_REQUEST_PARAMS[name].__class__ is int else float(value)
 
 TURBINE_PATTERN = r"^wt[1-9]\d*_[1-9]\d?$"
 """A turbine name: ``wt<cluster>_<number>`` (cluster ≥ 1, number 1–99); see :func:`sdvisc.wire.parse_turbine`."""

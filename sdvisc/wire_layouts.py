@@ -81,15 +81,40 @@ class Status(enum.IntEnum):
     REFUSED = 7
 
 
-class ParamMask(enum.IntFlag):
-    """``REQUEST.mask``: which parameter words of a REQUEST are meaningful."""
+@dataclass(frozen=True)
+class RuntimeParam:
+    """One run-time parameter word of a REQUEST: what a law may change while it runs (START_INSTANCE,
+    SET_PARAMS). Declared once here: the ``mask`` bits (:class:`ParamMask`), the REQUEST's words, the
+    admission's accepted range (:mod:`sdc_unit.admission`), the schema's and the OWFCC's parameter
+    names are generated from :data:`RUNTIME_PARAM_WORDS`. A law (``sdc_unit.laws``) marks which of its
+    parameters are run-time ones by these names; ``tests/unit/test_law_registry.py`` fails if a law
+    and this list disagree (name or unit)."""
 
-    H = 1
-    D = 2
-    M_Q = 4
-    V_REF = 8
-    Q_REF = 16
-    SUPP = 32
+    name: str
+    kind: Literal["i32", "f32"]
+    unit: str
+    doc: str
+    lo: float | None = None
+    hi: float | None = None
+    """Accepted range (None: any value of the kind is valid, e.g. a bit field)."""
+
+
+RUNTIME_PARAM_WORDS: tuple[RuntimeParam, ...] = (
+    RuntimeParam("h", "f32", "s", "inertia constant H", 1e-3, 100.0),
+    RuntimeParam("d", "f32", "p.u.", "damping D", 0.0, 1e4),
+    RuntimeParam("m_q", "f32", "p.u.", "reactive-power droop m_q", 0.0, 10.0),
+    RuntimeParam("v_ref", "f32", "p.u.", "voltage reference", 0.5, 1.5),
+    RuntimeParam("q_ref", "f32", "p.u.", "reactive-power reference", -10.0, 10.0),
+    RuntimeParam("supp", "i32", "", "supplementary-control bit field"),
+)
+"""The REQUEST's parameter words in wire order; the ``mask`` bit of the k-th is 2**k. Ranges as the
+SDC admits them (h: above 0 and at most 100 s; d: at most 1e4 p.u.; m_q: at most 10 p.u.; v_ref:
+0.5-1.5 p.u. as a converter can hold; q_ref: ±10 p.u.)."""
+
+ParamMask = enum.IntFlag("ParamMask", [(p.name.upper(), 1 << k) for k, p in enumerate(RUNTIME_PARAM_WORDS)],
+                         module=__name__)
+ParamMask.__doc__ = """``REQUEST.mask``: which parameter words of a REQUEST are meaningful (H = 1, D = 2,
+M_Q = 4, V_REF = 8, Q_REF = 16, SUPP = 32: generated from :data:`RUNTIME_PARAM_WORDS`)."""
 
 
 @dataclass(frozen=True)
@@ -157,12 +182,7 @@ LAYOUTS: dict[MsgType, tuple[Field, ...]] = {
         _i32("wt", "turbine id (cluster*100 + number)"),
         _i32("sdc_ip", "IPv4 address of the SDC, two's-complement int32", unit="IPv4"),
         _i32("mask", "ParamMask bits: which of the parameters below are meaningful"),
-        _f32("h", "s", "inertia constant H"),
-        _f32("d", "p.u.", "damping D"),
-        _f32("m_q", "p.u.", "reactive-power droop m_q"),
-        _f32("v_ref", "p.u.", "voltage reference"),
-        _f32("q_ref", "p.u.", "reactive-power reference"),
-        _i32("supp", "supplementary-control bit field"),
+        *(Field(p.name, p.kind, p.unit, p.doc) for p in RUNTIME_PARAM_WORDS),
     ),
     MsgType.REPLY: (
         MSG_TYPE_FIELD,
