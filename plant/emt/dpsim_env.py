@@ -8,8 +8,10 @@ temporary directory during the import and the log directory another one; both ar
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import shutil
+import sys
 import tempfile
 
 _DPSIM = None
@@ -48,3 +50,23 @@ def dpsim():
         dpsimpy.Logger.set_log_dir(os.path.join(scratch_dir(), "logs"))
         _DPSIM = dpsimpy
     return _DPSIM
+
+
+@contextlib.contextmanager
+def native_stdout_silenced():
+    """File descriptor 1 sent to /dev/null for the block: DPsim's C++ prints "Handle event time ..." on
+    every switch event straight to the process's stdout (neither ``LogLevel.off`` nor the Python streams
+    reach it), which would land in the report's output. Python's buffer is flushed before, so what it
+    wrote earlier still appears; what anything writes to stdout inside the block is discarded (the run
+    loops print nothing; stderr is untouched)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    try:
+        os.dup2(devnull, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
+        os.close(devnull)

@@ -13,7 +13,7 @@ import numpy as np
 
 from plant.emt import arrangement, frame
 from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
-from plant.emt.dpsim_env import dpsim
+from plant.emt.dpsim_env import dpsim, native_stdout_silenced
 from plant.emt.operating_point import from_phasor_plant
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
@@ -94,33 +94,34 @@ class EmtComparison:
         i_attr = c[term[1]].attr("i_intf") if term else None
         conv = d.Math.single_phase_variable_to_three_phase
         wall0, cpu0 = time.perf_counter(), time.process_time()
-        sim.start()
-        for k in range(n):
-            while pending and pending[0][0] <= k:
-                pending.pop(0)[1](self)
-            sim.next()
-            v_pcc[k] = np.ravel(v_attr.get())
-            if k_clear is not None and k >= k_clear and v_pcc[k, 0] * v_pcc[k - 1, 0] <= 0.0:
-                circ.fault_switch.open()  # phase a's fault current (v_a / R_FAULT) crossed zero
-                k_clear = None
-            if term:
-                v_t[k] = np.ravel(vt_attr.get())
-                i_dev[k] = -np.ravel(i_attr.get())  # i_intf of [a, b] flows b -> a: out of the source
-                tk = t[k]
-                vk = frame.park_sample(*v_t[k], tk)
-                if self.sc is not None:
-                    src_ref.set(conv(self.sc.step(vk, frame.park_sample(*i_dev[k], tk), self.h)))
-                else:
-                    if (k + 1) % self.law_every == 0:
-                        self.visc.sample(vk, frame.park_sample(*i_dev[k], tk), self.law_every * self.h)
-                    src_ref.set(conv(self.visc.converter_voltage(vk, self.h)))
-                    law_rec[k] = (getattr(self.visc, "i_ref", np.nan), getattr(self.visc, "limited", np.nan),
-                                  getattr(self.visc, "e_mag", np.nan))
-            if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
-                lo = k + 1 - spc
-                v1 = complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1])))
-                farm_ref.set(conv(self.farm.current(v1, t[k]) / np.sqrt(3.0)))
-        sim.stop()
+        with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
+            sim.start()
+            for k in range(n):
+                while pending and pending[0][0] <= k:
+                    pending.pop(0)[1](self)
+                sim.next()
+                v_pcc[k] = np.ravel(v_attr.get())
+                if k_clear is not None and k >= k_clear and v_pcc[k, 0] * v_pcc[k - 1, 0] <= 0.0:
+                    circ.fault_switch.open()  # phase a's fault current (v_a / R_FAULT) crossed zero
+                    k_clear = None
+                if term:
+                    v_t[k] = np.ravel(vt_attr.get())
+                    i_dev[k] = -np.ravel(i_attr.get())  # i_intf of [a, b] flows b -> a: out of the source
+                    tk = t[k]
+                    vk = frame.park_sample(*v_t[k], tk)
+                    if self.sc is not None:
+                        src_ref.set(conv(self.sc.step(vk, frame.park_sample(*i_dev[k], tk), self.h)))
+                    else:
+                        if (k + 1) % self.law_every == 0:
+                            self.visc.sample(vk, frame.park_sample(*i_dev[k], tk), self.law_every * self.h)
+                        src_ref.set(conv(self.visc.converter_voltage(vk, self.h)))
+                        law_rec[k] = (getattr(self.visc, "i_ref", np.nan), getattr(self.visc, "limited", np.nan),
+                                      getattr(self.visc, "e_mag", np.nan))
+                if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
+                    lo = k + 1 - spc
+                    v1 = complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1])))
+                    farm_ref.set(conv(self.farm.current(v1, t[k]) / np.sqrt(3.0)))
+            sim.stop()
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         out = {"t": t, "v_pcc_abc": v_pcc, "v_t_abc": v_t, "i_abc": i_dev, "spc": spc, "h": self.h,
                "wall_s": wall, "cpu_s": cpu, "k_device": self.op.k_device}
