@@ -276,6 +276,9 @@ class LinkInfo(_Config):
     b: str
     b_port: int
     element: str | None = Field(None, description="impairment element (host) in the link, transparent at L2")
+    delay_s: float = Field(0.0, ge=0, le=10.0, description=(
+        "the link's one-way delay, s, from the topology's link options (0: unknown; the delay path policy "
+        "then counts the link as a hop only, sdn_app.path_policies.delay)"))
 
 
 class TopologyInfo(_Config):
@@ -286,6 +289,13 @@ class TopologyInfo(_Config):
     links: list[LinkInfo]
     intake_ports: dict[str, int] = Field(default_factory=dict, description=(
         "OpenFlow switch -> its port toward the controller's intake network (topologies.base.add_intake)"))
+
+
+class ManagerChoice(_Config):
+    """One entry of ``sdn.managers``: an SDN manager and the turbines it acts for."""
+
+    name: str = Field(description="the manager's name in sdn_app.managers.MANAGERS")
+    turbines: list[TurbineName] | None = Field(None, description="the turbines it acts for; null: every turbine")
 
 
 class SdnOptions(_Config):
@@ -310,6 +320,33 @@ class SdnOptions(_Config):
         "how AKs, heartbeats, requests and replies reach the app: socket (the switches forward them to the "
         "app's UDP socket on an intake network, batched per wake-up), packet_in (OpenFlow packet-ins), auto "
         "(socket unless a redundant pair runs: its slave must see what the master sees)"))
+    managers: list[ManagerChoice] = Field(default_factory=list, description=(
+        "SDN managers (sdn_app.managers.MANAGERS) and the turbines each acts for; an entry replaces what the "
+        "booleans above give that manager (every turbine), turbines: [] switches it off (SdnOptions.manager_selection)"))
+    path_policy: str = Field("hops", description=(
+        "how paths are chosen (sdn_app.path_policies.PATH_POLICIES): hops (fewest hops) or delay (least summed "
+        "link delay_s, then fewest hops)"))
+
+    @field_validator("managers")
+    @classmethod
+    def _each_manager_once(cls, value: list[ManagerChoice]) -> list[ManagerChoice]:
+        names = [m.name for m in value]
+        twice = sorted({n for n in names if names.count(n) > 1})
+        if twice:
+            raise ValueError(f"each manager may be listed once; listed more than once: {twice}")
+        return value
+
+    def manager_selection(self) -> dict[str, frozenset[str] | None]:
+        """The one place the booleans map onto managers: manager name -> the turbines it acts for
+        (None: every turbine). The booleans give their manager for every turbine (the ingress guard
+        is always on); an entry of ``managers`` replaces that manager's selection."""
+        by_boolean = {"ingress_guard": True, "dynamic_routing": self.dynamic_routing,
+                      "port_status_reroute": self.reroute_on_port_status, "fast_failover": self.fast_failover,
+                      "duplication": self.duplicate_paths, "mirror": self.failover and self.mirror_to_backup}
+        chosen: dict[str, frozenset[str] | None] = {n: None for n, on in by_boolean.items() if on}
+        for choice in self.managers:
+            chosen[choice.name] = None if choice.turbines is None else frozenset(choice.turbines)
+        return {n: t for n, t in chosen.items() if t is None or t}
 
 
 class IntakeSocket(_Config):
