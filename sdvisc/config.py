@@ -137,6 +137,8 @@ class TurbineEndpoint(_Config):
     wid: int = Field(ge=101)
     ip: str
     pid: int | None = Field(None, description="a process in the turbine's network namespace (None: this one)")
+    plant_index: int | None = Field(None, ge=0, description=(
+        "its converter in the full plant model, from the topology's description (HostInfo.plant_index)"))
 
 
 GRID_SCENARIO_KEYS = {"h": "h_grid", "s_mva": "s_grid_mva", "d": "d_grid", "r_gov": "r_gov", "t_gov_s": "t_gov",
@@ -268,6 +270,8 @@ class HostInfo(_Config):
     udp_port: int = Field(PORT_TURBINE, ge=1, le=65535, description=(
         "the UDP port the turbine's endpoint listens on and sends from (a GTNET-SKT card serving "
         "several turbines from one IP: one port each)"))
+    plant_index: int | None = Field(None, ge=0, description=(
+        "a turbine's converter in the full plant model, written by its topology (topologies.base.plant_index)"))
 
 
 class LinkInfo(_Config):
