@@ -1,0 +1,257 @@
+"""F8's farm arrangement in EMT: N SDViSC turbines (each its own average-model converter with the ViSC law
+and its droop m_q) behind their turbine transformers and their cluster's array cable, the rest of the farm
+aggregated into one grid-following current source at the offshore collector, the export path (offshore
+transformer, export cable, onshore transformer) to the PCC, the grid's Thevenin source, a fault switch at
+the PCC; optionally the 40 MVA SC at the PCC (its E'' behind x''_d driven by the project's condenser model,
+as plant/emt/arrangement.py).
+
+Element values are the phasor plant's (plant/network.py on the same ``PlantParams``); the operating point
+is the phasor plant's F8 set-up (plant.cases.visc_plant, the SDViSC turbines at P = 0 before activation)
+at the PCC: the grid EMF and the current the onshore transformer delivers, so the PCC starts at the same
+voltage; the EMT circuit's own load flow (plant/emt/netlist.py) then gives every node. The export cable is
+one pi section (the phasor plant: ``export_sections``) with its compensation reactors at both ends; the
+array cables' charging sits at the collector. Left out (stated in docs/plant.md, "EMT backend"): the other
+clusters' array cables and turbine transformers (the aggregated farm injects at the collector), the other
+turbines' currents in the SDViSCs' array cable, the WPP's Q/V control (F8 runs it in Q mode at Q* = 0: the
+farm's P and Q constant).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+import plant.cases
+from plant.condenser import Condenser
+from plant.emt import arrangement, frame, netlist
+from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
+from plant.emt.dpsim_env import dpsim, native_stdout_silenced
+from plant.emt.model import STEPS_PER_TS, TS_S
+from sdc_unit import law
+from sdc_unit.params import ViscParams
+from sdvisc.vocabulary import F_NOMINAL_HZ
+
+LOAD_FLOW_ITERATIONS = 4  # the farm's injection matched to the PCC's current (converges to 1e-9 in 3)
+
+
+@dataclass
+class FarmCircuit:
+    net: netlist.Netlist
+    v0: dict
+    n_visc: int
+    k_unit: float  # a turbine's rating / network base
+    z_filter: complex  # network base
+    i_unit0: np.ndarray  # converter currents at the start (network base, out of the converter)
+    visc_params: list
+    farm_s: complex  # the aggregated farm's injection (network base) at its node
+    farm_rating: float
+    sc_state: np.ndarray | None = None
+    sc_v_ref: float = 1.0
+
+
+def phasor_farm_plant(n_visc: int, m_q, with_sc: bool = False, **grid):
+    """The phasor plant of F8's set-up: ``n_visc`` SDViSC turbines (cluster 3) at P = 0 not yet active,
+    droops ``m_q``; ``with_sc``: the SC in service as well (the benchmark's arrangement)."""
+    vp = ViscParams(m_q=np.asarray(m_q, dtype=float)[:n_visc]) if n_visc else ViscParams()
+    if not with_sc:
+        return plant.cases.visc_plant(n_visc, vp, activate=False, **grid)
+    p = plant.cases.sc_plant(**grid)
+    p.visc_params = vp
+    idx = plant.cases.visc_indices(n_visc)
+    p.set_power_ref(idx, p=0.0)
+    p.reinitialise()
+    return p
+
+
+def build_case(n_visc: int, m_q, with_sc: bool = False, **grid) -> tuple[FarmCircuit, object]:
+    """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from)."""
+    p = phasor_farm_plant(n_visc, m_q, with_sc, **grid)
+    nw, pp = p.net, p.params
+    g, t = pp.grid, pp.turbine
+    _, _, aux = p._eval_cached()
+    V = p._full_v(aux)
+    v_pcc = complex(V[nw.pcc])
+    i_pcc = complex((V[nw.on_hv] - V[nw.pcc]) / nw.z_ontr())  # into the PCC from the farm
+    idx = plant.cases.visc_indices(n_visc)
+    m = p.measurements()
+    k = float(nw.k_t[idx[0]]) if n_visc else float(nw.k_t[0])
+    i_unit0 = np.array([complex(m["i_d"][u], m["i_q"][u]) * k for u in idx])
+    z_ttr = complex(g.r_ttr, g.x_ttr) * nw.sb / g.s_ttr_mva
+    z_array, b_array = nw._cable(g.array_km, g.array_r_ohm_km, g.array_l_mh_km, g.array_c_nf_km, g.v_array_kv)
+    z_export, b_export = nw._cable(g.export_km, g.export_r_ohm_km, g.export_l_mh_km, g.export_c_nf_km,
+                                   g.v_export_kv)
+    b_comp = g.comp_fraction * b_export / 2.0  # at each end, as plant/network.py
+    z_otr = complex(g.r_otr, g.x_otr) * nw.sb / g.s_otr_mva
+    zf = complex(t.rf, t.lf) / k
+    sc = None
+    if with_sc:
+        sc = p.X[p.layout.condenser:p.layout.grid].real.copy()
+
+    def netlist_of(i_farm: complex, e_conv: list | None, e_sc: complex) -> netlist.Netlist:
+        """``e_conv`` None: the converters as current sources (the load flow's unknown voltages)."""
+        n = netlist.Netlist()
+        zg = nw.z_grid()
+        n.add("V", "grid", "grid_src", netlist.GND, complex(g.e_grid))
+        n.add("R", "grid_r", "grid_src", "grid_mid", zg.real)
+        n.add("L", "grid_l", "grid_mid", "pcc", (zg.imag, zg.imag))
+        n.add("L", "zero_seq_ground", "pcc", netlist.GND, (arrangement.OPEN_SEQUENCE_X, nw.z_ontr().imag))
+        n.add("R", "damping", "pcc", netlist.GND, arrangement.R_DAMP)
+        n.add("S", "fault", "pcc", netlist.GND, (arrangement.R_OPEN, [arrangement.R_FAULT, arrangement.R_OPEN,
+                                                                      arrangement.R_OPEN]))
+        series = (("otr", "col", "os_hv", z_otr, arrangement.OPEN_SEQUENCE_X),  # YNd: no zero sequence
+                  ("export", "os_hv", "on_hv", z_export, z_export.imag),
+                  ("ontr", "on_hv", "pcc", nw.z_ontr(), arrangement.OPEN_SEQUENCE_X))
+        for name, a, b, z, x0 in series:
+            n.add("R", f"{name}_r", a, f"{name}_mid", z.real)
+            n.add("L", f"{name}_l", f"{name}_mid", b, (z.imag, x0))
+        for end in ("os_hv", "on_hv"):  # the export cable's charging (one pi) and its compensation reactors
+            n.add("C", f"{end}_charging", end, netlist.GND, 0.5 * b_export)
+            if b_comp > 0.0:
+                n.add("L", f"{end}_reactor", end, netlist.GND, (1.0 / b_comp, 1.0 / b_comp))
+        n.add("C", "array_charging", "col", netlist.GND, (pp.n_clusters - 0.5) * b_array)
+        n.add("I", "farm", "col", netlist.GND, i_farm)
+        if n_visc:
+            n.add("C", "array_charging_cl", "cl", netlist.GND, 0.5 * b_array)
+            n.add("R", "array_r", "cl", "array_mid", z_array.real)
+            n.add("L", "array_l", "array_mid", "col", (z_array.imag, z_array.imag))
+        for j in range(n_visc):
+            n.add("C", f"cf{j}", f"t{j}", netlist.GND, t.cf * k)
+            n.add("R", f"ttr_r{j}", f"t{j}", f"tm{j}", z_ttr.real)
+            n.add("L", f"ttr{j}", f"tm{j}", "cl", (z_ttr.imag, arrangement.OPEN_SEQUENCE_X))
+            if e_conv is None:
+                n.add("I", f"conv{j}", f"t{j}", netlist.GND, i_unit0[j])
+            else:
+                n.add("V", f"conv{j}", f"c{j}", netlist.GND, e_conv[j])
+                n.add("R", f"rf{j}", f"c{j}", f"m{j}", zf.real)
+                n.add("L", f"lf{j}", f"m{j}", f"t{j}", (zf.imag, zf.imag))
+        if with_sc:
+            zs, ztr = nw.z_sc_source(), nw.z_sc_tr()
+            n.add("L", "sc_tr", "sc_t", "pcc", (ztr.imag, arrangement.OPEN_SEQUENCE_X))
+            n.add("V", "sc_emf", "sc_src", netlist.GND, e_sc)
+            n.add("R", "sc_ra", "sc_src", "sc_mid", zs.real)
+            n.add("L", "sc_l", "sc_mid", "sc_t", (zs.imag, zs.imag))
+        return n
+
+    e_sc = complex(Condenser(pp.condenser).e_net(sc)) if with_sc else 0j
+    i_target = i_pcc + v_pcc / arrangement.R_DAMP  # the path also feeds the PCC's damping resistor
+    i_farm = i_target - i_unit0.sum()
+    for _ in range(LOAD_FLOW_ITERATIONS):  # the farm's current such that the path delivers i_target
+        lf_net = netlist_of(i_farm, None, e_sc)
+        lf = netlist.load_flow(lf_net)
+        i_farm += i_target - netlist.branch_current(lf_net, lf, "ontr_r")
+    e_conv = [lf[f"t{j}"] + zf * i_unit0[j] for j in range(n_visc)]
+    net = netlist_of(i_farm, e_conv, e_sc)
+    v0 = netlist.load_flow(net)
+    params = [p.visc_params.with_changes(m_q=float(np.asarray(m_q)[j])) for j in range(n_visc)]
+    circ = FarmCircuit(net, v0, n_visc, k, zf, i_unit0, params, v0["col"] * np.conj(i_farm),
+                       nw.n_farm * t.s_rated_mva / g.s_base_mva, sc, p.sc.v_ref if with_sc else 1.0)
+    return circ, p
+
+
+class EmtFarm:
+    """The stepped EMT run of :func:`build_case`'s circuit. The SDViSC converters hold their start-up
+    voltage (P = 0, as the phasor plant's turbines before the OWFCC's request) until :meth:`activate`,
+    then follow the ViSC law (sdc_unit's equations at every circuit step, the HD ViSC as F8's hd_visc),
+    each with its own droop; the aggregated farm's current is recomputed every Ts from its node's
+    positive-sequence voltage (devices.FarmInjection, its fault ride-through)."""
+
+    def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
+                 steps_per_ts: int = STEPS_PER_TS, **grid):
+        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, **grid)
+        self.h = TS_S / steps_per_ts
+        self.n_sub = steps_per_ts
+        pp = self.phasor_plant.params
+        self.farm = FarmInjection(self.circ.farm_s, self.circ.farm_rating, pp.turbine)
+        self.units: list[ViscConverter | None] = [None] * n_visc
+        self.sc = (CondenserEmf(pp.condenser, self.circ.sc_state, self.circ.sc_v_ref, self.phasor_plant.net.k_sc)
+                   if with_sc else None)
+        self._last: list[tuple[complex, complex]] = [(0j, 0j)] * n_visc
+        self._e = [self.circ.v0[f"c{j}"] for j in range(n_visc)]
+
+    def activate(self, run=None) -> None:
+        """Every SDViSC switches to the ViSC law, bumpless at its present terminal voltage and current."""
+        tp = self.phasor_plant.params.turbine
+        for j, (v, i) in enumerate(self._last):
+            p = self.circ.visc_params[j]
+            x0 = law.initial_state(law.Measurements.from_complex(v, i / self.circ.k_unit), p)
+            self.units[j] = ViscConverter(p, x0, self.circ.k_unit, v, self._e[j], tp)
+
+    def run(self, t_end: float, events: list | None = None, fault: tuple[float, float] | None = None) -> dict:
+        """As :meth:`plant.emt.model.EmtComparison.run`: ``events`` [(t, callable(run))], ``fault`` (on, off)
+        of a bolted SLG fault (phase a) at the PCC. Returns every step's phase voltages at the PCC
+        (``v_pcc_abc``) and the SDViSC terminals (``v_t_abc``, [step, unit, phase]), their converter currents
+        (``i_abc``, network base), Park phasors of each, ``cpu_s`` and ``wall_s``."""
+        d = dpsim()
+        c = self.circ
+        built = netlist.build(c.net, c.v0)
+        sim = d.Simulation("sdvisc_emt_farm", d.LogLevel.off)
+        sim.set_system(built.sys)
+        sim.set_domain(d.Domain.EMT)
+        sim.set_time_step(self.h)
+        sim.set_final_time(t_end + 10 * self.h)
+        sim.do_init_from_nodes_and_terminals(True)
+        k_clear = None
+        if fault is not None:
+            sim.add_event(d.event.SwitchEvent3Ph(round(fault[0] / self.h) * self.h - 0.5 * self.h,
+                                                 built.comps["fault"], True))
+            k_clear = int(round(fault[1] / self.h))
+        n = int(round(t_end / self.h))
+        nu = c.n_visc
+        pending = sorted(((int(round(t / self.h)), f) for t, f in (events or [])), key=lambda e: e[0])
+        t = (np.arange(n) + 1) * self.h
+        spc = int(round(1.0 / (F_NOMINAL_HZ * self.h)))
+        v_pcc, v_col = np.zeros((n, 3)), np.zeros((n, 3))
+        v_t, i_c = np.zeros((n, nu, 3)), np.zeros((n, nu, 3))
+        i_sc = np.zeros((n, 3))
+        conv = d.Math.single_phase_variable_to_three_phase
+        v_attr, col_attr = built.nodes["pcc"].attr("v"), built.nodes["col"].attr("v")
+        vt_attr = [built.nodes[f"t{j}"].attr("v") for j in range(nu)]
+        i_attr = [built.comps[f"lf{j}"].attr("i_intf") for j in range(nu)]
+        e_attr = [built.comps[f"conv{j}"].attr("V_ref") for j in range(nu)]
+        farm_ref = built.comps["farm"].attr("I_ref")
+        if self.sc is not None:
+            sc_v, sc_i = built.nodes["sc_t"].attr("v"), built.comps["sc_l"].attr("i_intf")
+            sc_ref = built.comps["sc_emf"].attr("V_ref")
+        park = frame.park_sample
+        wall0, cpu0 = time.perf_counter(), time.process_time()
+        with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
+            sim.start()
+            for k in range(n):
+                while pending and pending[0][0] <= k:
+                    pending.pop(0)[1](self)
+                sim.next()
+                tk = t[k]
+                v_pcc[k] = np.ravel(v_attr.get())
+                v_col[k] = np.ravel(col_attr.get())
+                if k_clear is not None and k >= k_clear and v_pcc[k, 0] * v_pcc[k - 1, 0] <= 0.0:
+                    built.comps["fault"].open()  # at phase a's current zero, as a breaker (model.py)
+                    k_clear = None
+                for j in range(nu):
+                    v_t[k, j] = np.ravel(vt_attr[j].get())
+                    i_c[k, j] = -np.ravel(i_attr[j].get())  # i_intf of [m, t] flows t -> m
+                    vk, ik = park(*v_t[k, j], tk), park(*i_c[k, j], tk)
+                    self._last[j] = (vk, ik)
+                    u = self.units[j]
+                    if u is not None:
+                        u.sample(vk, ik, self.h)
+                        self._e[j] = u.converter_voltage(vk, self.h)
+                        e_attr[j].set(conv(self._e[j]))
+                if self.sc is not None:
+                    vs = np.ravel(sc_v.get())
+                    i_sc[k] = -np.ravel(sc_i.get())
+                    sc_ref.set(conv(self.sc.step(park(*vs, tk), park(*i_sc[k], tk), self.h)))
+                if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
+                    lo = k + 1 - spc
+                    v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
+                    farm_ref.set(conv(self.farm.current(v1, tk) / np.sqrt(3.0)))
+            sim.stop()
+        wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+        out = {"t": t, "h": self.h, "spc": spc, "v_pcc_abc": v_pcc, "v_col_abc": v_col, "v_t_abc": v_t,
+               "i_abc": i_c, "i_sc_abc": i_sc, "wall_s": wall, "cpu_s": cpu, "k_unit": c.k_unit}
+        out["v_pcc"] = frame.park(v_pcc, t)
+        out["v_t"] = frame.park(np.moveaxis(v_t, 1, 0), t).T  # [step, unit]
+        out["i"] = frame.park(np.moveaxis(i_c, 1, 0), t).T / c.k_unit  # own base
+        out["q"] = (out["v_t"] * np.conj(out["i"])).imag if nu else np.zeros((n, 0))
+        return out
