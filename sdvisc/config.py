@@ -169,9 +169,11 @@ class GridSourceSettings(_Config):
 class PlantOptions(_Config):
     """The plant's options a scenario sets (its ``plant`` section)."""
 
-    model: Literal["minimal", "full", "external"] = Field("minimal", description=(
-        "minimal: infinite bus; full: the 500 MW farm; external: no plant process, an external GTNET-SKT peer "
-        "(a scenario's plant.peer) sends the turbines' measurements"))
+    model: Literal["minimal", "full", "emt", "external"] = Field("minimal", description=(
+        "minimal: infinite bus; full: the 500 MW farm; emt: the paper's comparison arrangement in EMT on DPsim "
+        "(the onshore SDViSC wt6_1 beside the aggregated farm, plant/emt/service_backend.py; the emt extra); "
+        "external: no plant process, an external GTNET-SKT peer (a scenario's plant.peer) sends the turbines' "
+        "measurements"))
     record: list[TurbineName] = Field(default_factory=list, description=(
         "turbines whose signals go to timeseries.csv (a scenario's empty list: those its timeline names)"))
     record_every: int = Field(15, ge=1, description="record one sample every N steps")
