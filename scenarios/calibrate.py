@@ -42,6 +42,7 @@ import numpy as np
 from plant.endpoint_tx import MeasPacker
 from plant.service import build_model
 from scenarios import configs
+from scenarios.calibration_report import candidates, closeness
 from scenarios.remote_process import RemoteProcess, popen_in
 from sdvisc import rxstamp, wire
 from sdvisc.config import write_config
@@ -299,7 +300,8 @@ class Calibration:
         return {"time_scale": k, "met": met, "started_from": start if self.turbines else None,
                 "turbines": self.turbines, "sdc": self.sdc_host,
                 "limits": {"busy": BUSY_LIMIT, "answer_p99_sim_ms": ROUND_TRIP_LIMIT_STEPS * self.step_s * 1e3},
-                "trials": trials, "wall_s": round(time.time() - started, 2), "plant_model": run.scenario.plant.model}
+                "candidates": candidates(trials), "trials": trials, "wall_s": round(time.time() - started, 2),
+                "plant_model": run.scenario.plant.model}
 
     # ------------------------------------------------------------------ one candidate
     def _step(self, setup: PilotSetup) -> None:
@@ -333,11 +335,12 @@ class Calibration:
         answer: dict[str, list[float]] = {wt: [] for wt in setup.turbines}  # CTRL after its step began, wall ms
         setup.sent.clear()
         cpu0, wall0 = setup.pilot_cpu_s(), time.time()
-        plant_s = self._probe(setup, period, steps, (rtt, back, answer))
+        plant_s, lateness = self._probe(setup, period, steps, (rtt, back, answer))
         extended = False
         if not shortfalls(k, self.step_s, float(np.mean(plant_s)), 0.0, None) and borderline(
                 answer, answer_budget_s(period)):
-            plant_s = np.concatenate([plant_s, self._probe(setup, period, steps, (rtt, back, answer))])
+            more_s, more_late = self._probe(setup, period, steps, (rtt, back, answer))
+            plant_s, lateness = np.concatenate([plant_s, more_s]), np.concatenate([lateness, more_late])
             steps, extended = 2 * steps, True
         sdc_busy = (setup.pilot_cpu_s() - cpu0) / (time.time() - wall0)
         per_turbine = {wt: {"round_trip_ms": delay_summary(rtt[wt]), "to_turbine_ms": delay_summary(back[wt]),
@@ -352,25 +355,29 @@ class Calibration:
                 "plant_step_us": {"mean": round(plant_cost * 1e6, 1), "p99": round(float(np.percentile(plant_s, 99)) * 1e6, 1)},
                 "plant_busy": round(plant_cost / period, 3), "sdc_busy": round(sdc_busy, 3),
                 "answer_p99_sim_ms": None if worst is None else round(worst / k, 4),
+                "closeness": closeness(answer, steps, period, answer_budget_s(period), lateness,
+                                       None if worst is None else worst * 1e-3),
                 "per_turbine_wall": per_turbine}
 
-    def _probe(self, setup: PilotSetup, period: float, steps: int, into: tuple) -> np.ndarray:
+    def _probe(self, setup: PilotSetup, period: float, steps: int, into: tuple) -> tuple[np.ndarray, np.ndarray]:
         """``steps`` paced steps of ``period`` wall seconds; the answers go into ``into`` (round trips,
-        returns, answer times: :meth:`_drain`); returns each step's wall seconds (drain + step + sends)."""
-        plant_s = np.empty(steps)
+        returns, answer times: :meth:`_drain`); returns each step's wall seconds (drain + step + sends)
+        and how late each began (wall s after its schedule)."""
+        plant_s, lateness = np.empty(steps), np.empty(steps)
         start = time.perf_counter()
         for n in range(steps):
             delay = start + n * period - time.perf_counter()
             if delay > 0:
                 time.sleep(delay)
             t0 = time.perf_counter()
+            lateness[n] = t0 - (start + n * period)
             setup.step_start_ns = time.time_ns()
             self._drain(setup, *into)
             self._step(setup)
             plant_s[n] = time.perf_counter() - t0
         time.sleep(max(0.2, 20 * period))
         self._drain(setup, *into)
-        return plant_s
+        return plant_s, lateness
 
     @staticmethod
     def _drain(setup: PilotSetup, rtt: dict, back: dict, answer: dict) -> None:

@@ -33,6 +33,7 @@ import time
 from pathlib import Path
 
 from scenarios.calibrate import CANDIDATES, Calibration
+from scenarios.calibration_report import candidates_line
 from sdvisc.jsonlines import write_json_atomic
 
 CACHE_ENV = "SDVISC_CALIBRATION_CACHE"
@@ -200,7 +201,8 @@ def choose_time_scale(run, cache: CalibrationCache | None = None, measure=None) 
     kept = "cached for the next run of this shape" if cache.path else "calibration cache off"
     return {**calibration, "source": "measured", "cache_key": key, "cache_file": cache.path and str(cache.path),
             "line": (f"sdvisc: time scale {calibration['time_scale']:g}{verdict}, calibrated in "
-                     f"{calibration['wall_s']:.1f} s: {entry['why']}; {kept}")}
+                     f"{calibration['wall_s']:.1f} s: {entry['why']}; {kept}"
+                     + (f"; candidates: {candidates_line(trials)}" if (trials := calibration.get("trials")) else ""))}
 
 
 def after_run(calibration: dict, advice: str | None, cache: CalibrationCache | None = None) -> dict:
