@@ -70,7 +70,8 @@ def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | N
     """``pids``: a process in each turbine's network namespace (the Mininet host's shell);
     ``open_ended``: the plant runs until it is told to stop (an interactive session), not ``duration_s``.
     A scenario's empty ``plant.record`` records the turbines its timeline names."""
-    turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"], "pid": pids.get(n)}
+    turbines = [{"name": n, "wid": wire.turbine_id(h["cluster"], h["number"]), "ip": h["ip"], "pid": pids.get(n),
+                 "plant_index": h.get("plant_index")}
                 for n, h in sorted(desc["hosts"].items()) if h["role"] == "turbine"]
     options = _options(sc.plant, PlantOptions) | {"record": sc.plant.record or sc.turbines_named()}
     batteries = sc.plant.batteries
@@ -80,4 +81,4 @@ def plant_config(sc: Scenario, desc: dict, out_dir: str, pids: dict[str, int | N
                        prepare_scr=sorted({e.value for e in sc.timeline if e.do == "scr"}),
                        batteries=batteries.turbines if batteries else [],
                        battery_soc_init=batteries.soc_init if batteries else None,
-                       onshore_units=sc.topology.onshore_units)
+                       onshore_units=sc.topology.option("onshore_units", 0))

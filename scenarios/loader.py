@@ -38,12 +38,26 @@ def _clean_loc(loc: tuple) -> tuple:
     return tuple(out)
 
 
-def _message(err: dict) -> str:
+def _message(err: dict, data: dict) -> str:
+    if err["type"] == "extra_forbidden" and len(err["loc"]) == 2 and err["loc"][0] == "topology":
+        return _not_an_option(data["topology"])
     if err["type"] == "extra_forbidden":
         return "unknown key (not allowed here)"
     if err["type"] == "finite_number":
         return f"must be a finite number, not {err['input']!r}"
     return err["msg"]
+
+
+def _not_an_option(section: dict) -> str:
+    """The message for an unknown key of the topology section: the topology's options."""
+    from topologies.custom import TopologyNotFound, topology_class
+    from topologies.options import described_options
+
+    name = section.get("name", "paper")
+    try:
+        return f"not an option of topology {name} (its options: {described_options(topology_class(name, None))})"
+    except TopologyNotFound:  # a custom one: named in its own error if unknown
+        return f"not an option of topology {name}"
 
 
 @dataclass(frozen=True)
@@ -85,12 +99,14 @@ def load_scenario(path: str | Path, overrides: list[Override] | tuple = ()) -> S
     for override in overrides:
         override.apply(data)
     problems: list[tuple[tuple, str]] = []
+    context = {"scenario_dir": path.parent}  # (topology.custom is relative to the file)
     try:
-        scenario = Scenario.model_validate(data)
+        scenario = Scenario.model_validate(data, context=context)
     except ValidationError as exc:
         scenario = None
-        problems = [(_clean_loc(tuple(err["loc"])), _message(err)) for err in exc.errors()]
-    parts = _Parts.of_scenario(scenario) if scenario is not None else _Parts.of_partial(data, {loc for loc, _ in problems})
+        problems = [(_clean_loc(tuple(err["loc"])), _message(err, data)) for err in exc.errors()]
+    parts = _Parts.of_scenario(scenario) if scenario is not None else \
+        _Parts.of_partial(data, {loc for loc, _ in problems}, context)
     problems += parts.problems()
     if problems:
         raise ScenarioError("\n".join(_report(path, root, problems, overrides)))
@@ -141,14 +157,14 @@ class _Parts:
                    sc.plant.peer, sc.cluster)
 
     @classmethod
-    def of_partial(cls, data: dict, bad: set[tuple]) -> _Parts:
+    def of_partial(cls, data: dict, bad: set[tuple], context: dict) -> _Parts:
         """From a file that failed validation: each section, field and timeline entry that has no
         error of its own (the default topology if ``topology`` is bad)."""
         def ok(*path) -> bool:
             return not any(loc[:len(path)] == path for loc in bad)
 
-        topology = TopologySpec.model_validate(data["topology"]) if "topology" in data and ok("topology") \
-            else TopologySpec()
+        topology = TopologySpec.model_validate(data["topology"], context=context) \
+            if "topology" in data and ok("topology") else TopologySpec()
         duration = float(data["duration_s"]) if data.get("duration_s") is not None and ok("duration_s") else None
         plant = data.get("plant", {})
         model = plant.get("model", "minimal") if isinstance(plant, dict) and ok("plant", "model") else None
@@ -200,11 +216,10 @@ class _Parts:
 
     def _name_problems(self) -> list[tuple[tuple, str]]:
         """Turbines, hosts and links named in the timeline must exist in the chosen topology."""
-        from topologies import topos
         from topologies.base import describe
 
         topo = self.topology
-        desc = describe(topos[topo.name](**topo.params()))
+        desc = describe(topo.topo_class()(**topo.params()))
         problems = external_problems(desc, topo.external_switches, self.peer)
         if self.cluster is not None:
             problems += cluster_problems(desc, self.cluster, self.events)
@@ -217,7 +232,7 @@ class _Parts:
             wt = getattr(event, "wt", None)
             if wt is not None and wt not in hosts:
                 problems.append((("timeline", i, "wt"),
-                                 f"turbine {wt!r} is not in topology {topo.name} ({topo.clusters}x{topo.turbines})"))
+                                 f"turbine {wt!r} is not in topology {topo.label()}"))
             if event.do in ("link_down", "link_up"):
                 ends = {event.a, event.b}
                 if not ends <= switches | set(hosts) or (ends <= switches and frozenset(ends) not in links):
@@ -247,7 +262,7 @@ class _Parts:
                 seen.setdefault(pair, loc)
         for loc, name in self.turbines:
             if name not in hosts:
-                problems.append((loc, f"turbine {name!r} is not in topology {topo.name} ({topo.clusters}x{topo.turbines})"))
+                problems.append((loc, f"turbine {name!r} is not in topology {topo.label()}"))
         return problems
 
     def _plant_problems(self) -> list[tuple[tuple, str]]:
@@ -261,9 +276,10 @@ class _Parts:
         relative = relative_params(cls)
         supported = supported_actions(cls)
         problems = []
-        if self.topology.onshore_units and self.model != "full":
+        if self.topology.option("onshore_units") and self.model not in ("full", "emt"):
             problems.append((("topology", "onshore_units"), f"onshore units are converters of the full farm "
-                             f"model (PlantParams.onshore_units): needs plant.model: full, not {self.model}"))
+                             f"model (PlantParams.onshore_units) or the EMT arrangement's SDViSC: needs plant.model: "
+                             f"full or emt, not {self.model}"))
         for i, event in self.events:
             if event.do == "set" and event.param not in settable:
                 problems.append((("timeline", i, "param"),

@@ -36,7 +36,6 @@ from scenarios.summary import build_summary
 from scenarios.timeline import Timeline
 from sdvisc.clock import Clock
 from sdvisc.config import CONTROLLER_VIP, CONTROLLER_VMAC, write_config
-from topologies import topos
 from topologies.base import INTAKE_HOST, CheckedController, TestbedSwitch, default_datapath, describe
 
 SWITCH_CONNECT_TIMEOUT_S = 30.0
@@ -130,7 +129,7 @@ class Run(RunState):
                 self._say(f"sdvisc: cpu_split not applied: {self.cpu_split['why']}")
         if sc.switch_revalidation_ms:  # before the calibration: it measures the run's switches
             self.switch_revalidation = ovs_revalidation.apply(sc.switch_revalidation_ms)
-        topo = self.impairments.build_topology(topos[sc.topology.name], sc.topology.params())
+        topo = self.impairments.build_topology(sc.topology.topo_class(), sc.topology.params())
         if sc.sdn.uses_intake_socket(any(s["openflow"] for s in describe(topo)["switches"].values())):
             topo.add_intake(CONTROLLER_VIP, CONTROLLER_VMAC)
         self.desc = describe(topo)

@@ -19,9 +19,19 @@ Timeline entries are discriminated by ``do``::
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Annotated, Literal, get_args
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationInfo, field_validator, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    ValidationInfo,
+    field_validator,
+    model_validator,
+)
+from pydantic_core import InitErrorDetails, PydanticCustomError
 
 from plant.params import BatteryParams
 from scenarios.cluster_spec import ClusterSpec
@@ -33,7 +43,6 @@ from sdvisc.config import (
     LinkEnds,
     LinkImpairmentOptions,
     LossProbability,
-    OnshoreUnits,
     OwfccOptions,
     PlantOptions,
     RunSeconds,
@@ -43,7 +52,7 @@ from sdvisc.config import (
     TimeScale,
     TurbineName,
 )
-from sdvisc.vocabulary import ONSHORE_CLUSTER, VISC_PARAMS
+from sdvisc.vocabulary import VISC_PARAMS
 
 RuntimeParamName = Literal[tuple(VISC_PARAMS)]
 """A run-time parameter a REQUEST can set (h, d, m_q, v_ref, q_ref, supp: sdvisc.wire_layouts.RUNTIME_PARAM_WORDS)."""
@@ -54,38 +63,65 @@ class Strict(BaseModel):
 
 
 class TopologySpec(Strict):
-    name: Literal["paper", "farm"] = Field("paper", description="topology in topologies.topos")
-    clusters: int = Field(5, ge=1, le=50)
-    turbines: int = Field(2, ge=1, le=100, description="turbines per cluster")
-    layout: Literal["compact", "tower"] | None = Field(None, description="farm only; default compact")
-    onshore_units: OnshoreUnits
+    """The ``topology`` section: ``name`` (a topology of :data:`topologies.topos`, or of the ``custom``
+    file), the switches Mininet does not build, and the topology's own options beside them
+    (``topology: {name: farm, clusters: 5, layout: tower}``), checked against the pydantic model the
+    topology declares (topologies/options.py); ``options`` holds them, validated."""
+
+    name: str = Field("paper", description="a topology of topologies.topos, or of the custom file")
+    custom: str | None = Field(None, description=(
+        "a Python file exporting topos = {name: TopoClass}, as for mn --custom; relative to the scenario file"))
     external_switches: dict[str, ExternalSwitchSpec] = Field(default_factory=dict, description=(
         "OpenFlow switches of this topology that Mininet does not build: hardware switches (or, emulated, plain "
         "Open vSwitch bridges) the SDN app controls all the same (scenarios/external_spec.py)"))
+    options: dict | BaseModel = Field(default_factory=dict, description=(
+        "the topology's options (its options_model), given beside name in the file"))
+
+    @model_validator(mode="before")
+    @classmethod
+    def _options_beside_name(cls, data):
+        if not isinstance(data, dict):
+            return data
+        own = {"name", "custom", "external_switches", "options"}
+        nested = data.get("options") if isinstance(data.get("options"), dict) else {}  # (a dump read back)
+        return {**{k: v for k, v in data.items() if k in own}, "options": {
+            **nested, **{k: v for k, v in data.items() if k not in own}}}
 
     @model_validator(mode="after")
-    def _layout_only_for_farm(self):
-        if self.layout is not None and self.name != "farm":
-            raise ValueError("layout applies to the farm topology only")
+    def _options_of_the_topology(self, info: ValidationInfo):
+        from topologies.custom import TopologyNotFound, topology_class
+        from topologies.options import options_of
+
+        if self.custom is not None:
+            base = Path((info.context or {}).get("scenario_dir", "."))
+            self.custom = str((base / self.custom).resolve())
+        try:
+            cls = topology_class(self.name, self.custom)
+        except TopologyNotFound as exc:
+            key = "custom" if self.custom is not None and "custom topology file" in str(exc) else "name"
+            raise ValidationError.from_exception_data("TopologySpec", [InitErrorDetails(
+                type=PydanticCustomError("topology", str(exc)), loc=(key,), input=getattr(self, key))]) from None
+        given = self.options if isinstance(self.options, dict) else self.options.model_dump()
+        self.options = options_of(cls).model_validate(given)
         return self
 
-    @field_validator("onshore_units")
-    @classmethod
-    def _onshore_on_the_farm(cls, value: int, info: ValidationInfo) -> int:
-        if value and info.data.get("name", "paper") != "farm":
-            raise ValueError("onshore units need the farm topology (their hosts hang on its substation switch sub1)")
-        if value and info.data.get("clusters", 0) >= ONSHORE_CLUSTER:
-            raise ValueError(f"onshore unit hosts are wt{ONSHORE_CLUSTER}_<k>: at most {ONSHORE_CLUSTER - 1} "
-                             f"clusters beside them, not {info.data['clusters']}")
-        return value
+    def topo_class(self):
+        """The Mininet ``Topo`` class of this topology."""
+        from topologies.custom import topology_class
+
+        return topology_class(self.name, self.custom)
 
     def params(self) -> dict:
-        p = {"clusters": self.clusters, "turbines": self.turbines}
-        if self.name == "farm":
-            p["layout"] = self.layout or "compact"
-        if self.onshore_units:
-            p["onshore_units"] = self.onshore_units
-        return p
+        """The topology's options as keyword arguments of its class."""
+        return self.options.model_dump()
+
+    def option(self, key: str, default=None):
+        """One option of the topology (``default`` if it has no such option)."""
+        return getattr(self.options, key, default)
+
+    def label(self) -> str:
+        """The topology and its options, for messages: ``farm (clusters=5, turbines=10, ...)``."""
+        return f"{self.name} ({', '.join(f'{k}={v}' for k, v in self.params().items())})"
 
 
 class BatterySpec(Strict):
@@ -123,8 +159,10 @@ class PlantSpec(PlantOptions):
     @classmethod
     def _full_model_only(cls, value, info: ValidationInfo):
         given = value.given() if isinstance(value, GridSourceSettings) else value
-        if given and info.data.get("model", "minimal") != "full":
-            raise ValueError(f"{info.field_name} needs plant.model: full (the minimal model is an infinite bus)")
+        model = info.data.get("model", "minimal")
+        if given and model != "full" and not (model == "emt" and info.field_name != "batteries"):
+            raise ValueError(f"{info.field_name} needs plant.model: full{' or emt' * (info.field_name != 'batteries')} "
+                             f"(the minimal model is an infinite bus; the EMT arrangement has no batteries)")
         return value
 
 

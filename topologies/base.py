@@ -20,6 +20,7 @@ from mininet.topo import Topo
 from mininet.util import naturalSeq
 
 from sdvisc.wire_layouts import PORT_TURBINE
+from topologies.options import options_of
 
 NET_PREFIX_LEN = 16
 SERVICE_HOSTS = {
@@ -32,6 +33,19 @@ SERVICE_HOSTS = {
 def turbine_host(cluster: int, number: int) -> str:
     """Mininet host name of turbine ``number`` of ``cluster`` (both from 1)."""
     return f"wt{cluster}_{number}"
+
+
+PLANT_TURBINES_PER_CLUSTER = 10
+"""Turbines per cluster of the full plant model (plant/params.py: 5 clusters, 50 turbines; the
+paper's farm): host ``wt<c>_<n>`` is its converter :func:`plant_index` ``(c-1)*10 + n-1``."""
+
+
+def plant_index(cluster: int, number: int) -> int:
+    """The full plant model's converter of turbine ``number`` of ``cluster`` (both from 1): the one
+    place of this rule. It continues past the farm's 50 turbines: the onshore units' hosts
+    ``wt6_<k>`` are converters 50 + k - 1, after the farm's (``PlantParams.onshore_units``). Written
+    into each turbine's host entry (:func:`describe`, ``plant_index``), which the processes read."""
+    return (cluster - 1) * PLANT_TURBINES_PER_CLUSTER + number - 1
 
 
 def turbine_ip(cluster: int, number: int) -> str:
@@ -158,10 +172,17 @@ class TestbedTopo(Topo):
     of the direct link, and :func:`describe` still shows one link ``a–b`` (with ``element``).
     """
 
+    options_model = None
+    """The topology's options (a :class:`topologies.options.TopologyOptions`); ``build`` gets its
+    fields, validated (None: made from ``build``'s keyword arguments, topologies.options.options_of)."""
+
     def __init__(self, *args, impaired=(), **params):
         self.impaired = {frozenset(link) for link in impaired}
         self.elements: dict[str, tuple[str, str]] = {}  # element host -> (a, b)
-        super().__init__(*args, **params)
+        mininet_opts = {key: params.pop(key) for key in ("hopts", "sopts", "lopts") if key in params}
+        if not args:  # (Mininet's --topo name,a,b passes positional arguments: build takes them as they are)
+            params = options_of(type(self)).model_validate(params).model_dump()
+        super().__init__(*args, **mininet_opts, **params)
 
     def addLink(self, node1, node2, port1=None, port2=None, key=None, **opts):  # noqa: N802 - Mininet's name
         if frozenset((node1, node2)) not in self.impaired:
@@ -176,7 +197,9 @@ class TestbedTopo(Topo):
         ip, mac = SERVICE_HOSTS[name]
         return self.addHost(name, ip=f"{ip}/{NET_PREFIX_LEN}", mac=mac, role="service")
 
-    def add_turbine(self, cluster: int, number: int) -> str:
+    def add_turbine(self, cluster: int, number: int, plant: int | None = None) -> str:
+        """Turbine host ``wt<cluster>_<number>``; ``plant``: its converter in the full plant model
+        (default :func:`plant_index`)."""
         name = turbine_host(cluster, number)
         return self.addHost(
             name,
@@ -185,6 +208,7 @@ class TestbedTopo(Topo):
             role="turbine",
             cluster=cluster,
             number=number,
+            plant_index=plant_index(cluster, number) if plant is None else plant,
         )
 
     def add_switch(self, name: str, dpid: int, openflow: bool = True) -> str:
@@ -202,13 +226,32 @@ class TestbedTopo(Topo):
             Topo.addLink(self, name, INTAKE_BRIDGE, cls=OVSLink)  # a patch port: no device, no syscall
 
 
+_DELAY_UNITS = {"us": 1e-6, "ms": 1e-3, "s": 1.0}
+
+
+def delay_seconds(delay) -> float:
+    """A Mininet link's ``delay`` option (tc's ``'2ms'``, ``'500us'``, ``'1s'``; a bare number is
+    microseconds, as tc reads it) in seconds; 0.0 for None."""
+    if delay is None:
+        return 0.0
+    if isinstance(delay, int | float):
+        return float(delay) * 1e-6
+    text = str(delay).strip()
+    for unit in ("us", "ms", "s"):  # ("s" last: "ms" and "us" end with it)
+        if text.endswith(unit):
+            return float(text[: -len(unit)]) * _DELAY_UNITS[unit]
+    return float(text) * 1e-6
+
+
 def describe(topo: Topo) -> dict:
     """A static, JSON-ready description of ``topo`` (the SDN app's view of the wiring).
 
     Returns ``{"switches": {name: {"dpid", "openflow"}}, "hosts": {name: {"ip", "mac", "role",
     "switch", "port", ...}}, "links": [{"a", "a_port", "b", "b_port"}]}`` where ``links`` lists
     switch-to-switch links only and host entries name the switch port they hang on (a turbine's also
-    its ``cluster``, ``number`` and ``udp_port``, here always ``PORT_TURBINE``); with an intake
+    its ``cluster``, ``number``, ``plant_index`` (its converter in the full plant model) and ``udp_port``,
+    here always ``PORT_TURBINE``); a link's ``delay_s`` is the Mininet link's ``delay`` option in seconds
+    (0: none set, unknown); with an intake
     network also ``"intake_ports": {switch: port toward it}`` (its bridge and host are left out). A link with
     an impairment element is one link ``a–b`` between the switches' ports toward the element
     (plus ``"element": name``); the element is not a host of the description.
@@ -222,6 +265,7 @@ def describe(topo: Topo) -> dict:
     links = []
     intake_ports = {}
     element_ports: dict[str, dict[str, int]] = {}  # element -> {switch: the switch's port toward it}
+    element_delay: dict[str, float] = {}  # element -> the delay of its two halves, s
     for a, b, info in topo.links(sort=True, withKeys=False, withInfo=True):
         a, b = info["node1"], info["node2"]
         pa, pb = info["port1"], info["port2"]
@@ -230,12 +274,13 @@ def describe(topo: Topo) -> dict:
                 intake_ports.update({a: pa} if a in switches else {b: pb})
             continue
         if a in switches and b in switches:
-            links.append({"a": a, "a_port": pa, "b": b, "b_port": pb})
+            links.append({"a": a, "a_port": pa, "b": b, "b_port": pb, "delay_s": delay_seconds(info.get("delay"))})
             continue
         host, sw, sw_port = (a, b, pb) if b in switches else (b, a, pa)
         hinfo = topo.nodeInfo(host)
         if hinfo.get("role") == "impairment":
             element_ports.setdefault(host, {})[sw] = sw_port
+            element_delay[host] = element_delay.get(host, 0.0) + delay_seconds(info.get("delay"))
             continue
         entry = {
             "ip": hinfo["ip"].split("/")[0],
@@ -248,11 +293,13 @@ def describe(topo: Topo) -> dict:
             entry["cluster"] = hinfo["cluster"]
             entry["number"] = hinfo["number"]
             entry["udp_port"] = hinfo.get("udp_port", PORT_TURBINE)  # one host, one endpoint: the default
+            entry["plant_index"] = hinfo.get("plant_index", plant_index(hinfo["cluster"], hinfo["number"]))
         hosts[host] = entry
     for element, ports in element_ports.items():
         info = topo.nodeInfo(element)
         a, b = info["a"], info["b"]
-        links.append({"a": a, "a_port": ports[a], "b": b, "b_port": ports[b], "element": element})
+        links.append({"a": a, "a_port": ports[a], "b": b, "b_port": ports[b], "delay_s": element_delay[element],
+                      "element": element})
     links.sort(key=lambda link: naturalSeq((link["a"], link["b"])))  # the order without elements
     desc = {"switches": switches, "hosts": hosts, "links": links}
     if intake_ports:

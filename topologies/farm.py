@@ -20,22 +20,41 @@ onshore PCC, ``PlantParams.onshore_units``), each a turbine-like host ``wt6_<k>`
 
 from __future__ import annotations
 
+from typing import Literal
+
+from pydantic import Field, ValidationInfo, field_validator
+
+from sdvisc.config import OnshoreUnits
 from sdvisc.vocabulary import ONSHORE_CLUSTER, onshore_host
 from topologies.base import TestbedTopo
+from topologies.options import ClusteredOptions
 
-LAYOUTS = ("compact", "tower")
+
+class FarmOptions(ClusteredOptions):
+    """The farm's options: the paper's 5 × 10 turbines by default."""
+
+    turbines: int = Field(10, ge=1, le=100, description="turbines per cluster (the paper's farm: 10)")
+    layout: Literal["compact", "tower"] = Field("compact", description=(
+        "compact: one switch per cluster; tower: one switch per turbine (for the kernel datapath)"))
+    onshore_units: OnshoreUnits
+
+    @field_validator("onshore_units")
+    @classmethod
+    def _onshore_beside_the_clusters(cls, value: int, info: ValidationInfo) -> int:
+        clusters = info.data.get("clusters", 0)
+        if value and clusters >= ONSHORE_CLUSTER:
+            raise ValueError(f"onshore unit hosts are {onshore_host(1)}, …: at most {ONSHORE_CLUSTER - 1} "
+                             f"clusters beside them, not {clusters}")
+        return value
 
 
 class FarmTopo(TestbedTopo):
     """``clusters`` × ``turbines`` turbine hosts ``wt<c>_<n>`` on a ring-protected network, and
     ``onshore_units`` hosts ``wt6_<k>`` on ``sub1``."""
 
-    def build(self, clusters: int = 5, turbines: int = 10, layout: str = "compact", onshore_units: int = 0):
-        if layout not in LAYOUTS:
-            raise ValueError(f"farm layout must be one of {LAYOUTS}, got {layout!r}")
-        if onshore_units and clusters >= ONSHORE_CLUSTER:
-            raise ValueError(f"onshore units are hosts {onshore_host(1)}, …: the farm may have at most "
-                             f"{ONSHORE_CLUSTER - 1} clusters beside them, not {clusters}")
+    options_model = FarmOptions
+
+    def build(self, clusters: int, turbines: int, layout: str, onshore_units: int):
         sub1 = self.add_switch("sub1", dpid=1)
         sub2 = self.add_switch("sub2", dpid=2)
         self.addLink(self.add_service_host("owfcc"), sub1)

@@ -20,12 +20,15 @@ non-OpenFlow L2 switch ``l2`` that is dual-homed to ``s3`` and ``s4``; the turbi
 from __future__ import annotations
 
 from topologies.base import TestbedTopo
+from topologies.options import ClusteredOptions
 
 
 class PaperTopo(TestbedTopo):
     """The prototype: 4 OpenFlow switches, 1 L2 switch, owfcc, sdc1, sdc2 and turbine hosts."""
 
-    def build(self, clusters: int = 5, turbines: int = 2):
+    options_model = ClusteredOptions
+
+    def build(self, clusters: int, turbines: int):
         s1, s2, s3, s4 = (self.add_switch(f"s{i}", dpid=i) for i in range(1, 5))
         l2 = self.add_switch("l2", dpid=0x100, openflow=False)
         for a, b in ((s1, s2), (s2, s3), (s3, s4), (s4, s1), (s1, s3)):

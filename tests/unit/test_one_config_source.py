@@ -21,7 +21,7 @@ from plant.params import BatteryParams
 from scenarios import configs
 from scenarios.impairments import Impairments
 from scenarios.loader import load_scenario
-from scenarios.schema import BatterySpec, PlantSpec, Scenario
+from scenarios.schema import BatterySpec, PlantSpec, Scenario, TopologySpec
 from sdvisc.config import (
     BATTERY_SOC_LIMITS,
     AppConfig,
@@ -36,6 +36,7 @@ from sdvisc.config import (
 )
 from topologies import topos
 from topologies.base import describe
+from topologies.options import options_of
 
 PROCESS_CONFIGS = (AppConfig, SdcConfig, PlantConfig, OwfccConfig, ImpairNodeConfig)
 DATA_MODELS = (TopologyInfo, TurbineEndpoint)  # the built network as the processes see it, not options
@@ -147,6 +148,10 @@ def _fields(model: type[BaseModel], path: tuple = ()):
     for name, info in model.model_fields.items():
         if model is Scenario and name == "timeline":
             continue
+        if model is TopologySpec and name == "options":  # each topology's own, beside name in the file
+            for topo in topos.values():
+                yield from _fields(options_of(topo), path)
+            continue
         yield path + (name,), model, name, info
         for sub in _models_in(info.annotation):
             if sub not in DATA_MODELS:
@@ -243,7 +248,7 @@ def process_configs(data: dict, tmp_path: Path) -> dict[str, BaseModel]:
     path = tmp_path / "scenario.yaml"
     path.write_text(yaml.safe_dump(data))
     sc = load_scenario(path)
-    desc = describe(topos[sc.topology.name](**sc.topology.params()))
+    desc = describe(sc.topology.topo_class()(**sc.topology.params()))
     out = str(tmp_path)
     pids = {n: None for n, h in desc["hosts"].items() if h["role"] == "turbine"}
     _, sdc_id, role = configs.sdcs(sc)[0]

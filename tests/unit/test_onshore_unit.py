@@ -49,7 +49,7 @@ def test_the_onshore_unit_is_wt6_1_and_converter_50():
 def test_the_host_hangs_on_sub1_and_nothing_else_changes(tmp_path):
     plain = load_scenario(_write(tmp_path, FARM % "" + "plant: {model: full}\n"))
     with_unit = load_scenario(_write(tmp_path, FARM % ", onshore_units: 1" + FULL))
-    assert plain.topology.onshore_units == 0 and "onshore_units" not in plain.topology.params()
+    assert plain.topology.option("onshore_units") == plain.topology.params()["onshore_units"] == 0
     assert with_unit.topology.params()["onshore_units"] == 1
     d0, d1 = _desc(plain), _desc(with_unit)
     host = d1["hosts"].pop("wt6_1")
@@ -92,7 +92,7 @@ def test_the_plant_service_builds_the_comparison_arrangement(tmp_path):
         (FARM % ", onshore_units: one" + FULL, 3, "topology.onshore_units", "valid integer"),
         (FARM % ", onshore_units: 1.5" + FULL, 3, "topology.onshore_units", "integer"),
         ("name: t\nduration_s: 3\ntopology:\n  name: paper\n  onshore_units: 1\nplant: {model: full}\n", 5,
-         "topology.onshore_units", "need the farm topology"),
+         "topology.onshore_units", "not an option of topology paper"),
         ("name: t\nduration_s: 3\ntopology:\n  name: farm\n  clusters: 6\n  onshore_units: 1\nplant: {model: full}\n",
          6, "topology.onshore_units", "at most 5 clusters"),
         ("name: t\nduration_s: 3\nplant: {model: minimal}\ntopology:\n  name: farm\n  onshore_units: 1\n", 6,
@@ -117,8 +117,8 @@ def test_the_paper_files_run_the_onshore_unit_and_keep_the_cluster3_variant():
     for stem in ("f3_voltage_step", "f4_inertia_50mw", "f5_inertia_100mw_battery", "f6_slg_fault_current",
                  "f7_weak_grid_visc"):
         sc = load_scenario(root / f"{stem}.yaml")
-        assert sc.topology.onshore_units == 1 and sc.plant.model == "full"
+        assert sc.topology.option("onshore_units") == 1 and sc.plant.model == "full"
         assert [e.wt for e in sc.timeline if e.do == "visc_on"] == ["wt6_1"] and sc.plant.p_star == {"wt6_1": 0.0}
         old = load_scenario(root / f"{stem}_cluster3.yaml")
-        assert old.topology.onshore_units == 0 and old.name == f"{stem}_cluster3"
+        assert old.topology.option("onshore_units") == 0 and old.name == f"{stem}_cluster3"
         assert [e.wt for e in old.timeline if e.do == "visc_on"] == ["wt3_1", "wt3_2", "wt3_3", "wt3_4"]
