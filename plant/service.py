@@ -11,7 +11,8 @@ whenever it changes. Malformed, unexpected or implausible packets are dropped an
 reason, never applied (:mod:`plant.endpoint_rx`); a MEAS the wire cannot carry (a non-finite value
 of a diverged model) is counted (``meas_unencodable``) and not sent (:mod:`plant.endpoint_tx`).
 
-This module is the shim around it: per turbine one UDP socket in the turbine host's network
+The model is whatever ``plant.model`` names, behind one interface (:class:`plant.backend.PlantBackend`:
+the phasor farm, the infinite bus, the EMT arrangement on DPsim). This module is the shim around it: per turbine one UDP socket in the turbine host's network
 namespace (bound to the turbine IP, port ``wire.PORT_TURBINE``), the loop paced to the run's clock
 (wall or virtual), the scenario events arriving as JSON lines on stdin (``{"type": "stop"}`` ends
 the run; without ``duration_s`` the plant runs until then), the recorder (``timeseries.csv``), the
@@ -28,6 +29,7 @@ import sys
 import time
 from pathlib import Path
 
+from plant.backend import close_backend
 from plant.live import STATUS_EVERY_S, LivePublisher
 from plant.recorder import Recorder
 from plant.service_core import CTRL_GAP_STEPS, RTT_BINS, Endpoint, Pacing, PlantCore  # noqa: F401 (re-exported)
@@ -131,6 +133,7 @@ class PlantService:
                          cpu_s=self.cpu_s)
 
     def close(self) -> None:
+        close_backend(self.core.model)  # what the model holds (the EMT backend: DPsim's simulation)
         self.recorder.close()
         self.live.close()
         for sock in self.socks.values():

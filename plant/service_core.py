@@ -105,7 +105,8 @@ class PlantCore:
     """The turbines' endpoints around the plant model; see the module docstring.
 
     ``cfg``: the service's :class:`sdvisc.config.PlantConfig` (read once here); ``model``: the
-    plant model (:func:`plant.service_model.build_model`) and ``indices`` its index of each of
+    plant model, a :class:`plant.backend.PlantBackend` (:func:`plant.service_model.build_model`), and
+    ``indices`` its index of each of
     ``cfg.turbines``; ``live``: where events go (default: collected only, no files).
     """
 

@@ -1,5 +1,5 @@
-"""The model a plant service paces (:func:`build_model`): the scenario's ``plant.model`` with the
-settings of its plant section — the grid source's inertia, batteries on DC links, P* from t = 0 —
+"""The model a plant service paces (:func:`build_model`, a :class:`plant.backend.PlantBackend`): the
+scenario's ``plant.model`` with the settings of its plant section — the grid source's inertia, batteries on DC links, P* from t = 0 —
 applied before t = 0, and the relative ``set`` of a timeline (:func:`apply_set`)."""
 
 from __future__ import annotations
@@ -76,7 +76,34 @@ def build_model(cfg: PlantConfig, names: list[str]):
             if scr is not None:
                 plant.net.prepare(scr=scr)
         return plant, indices
+    if kind == "emt":
+        return _emt_model(cfg, names)
     raise ValueError(f"unknown plant model {kind!r}")
+
+
+def _emt_model(cfg: PlantConfig, names: list[str]):
+    """``emt``: the comparison arrangement on DPsim (:class:`plant.emt.service_backend.EmtServiceBackend`):
+    the onshore unit (host ``wt6_1``, converter n_farm) is its SDViSC, the farm's turbines one aggregated
+    injection (their hosts have indices but no converter of their own). Takes ``cfg.grid`` (the operating
+    point's grid source), ``remote_apply``, ``remote_loss_fallback_s`` and ``duration_s``; refuses what it
+    cannot model (batteries, a P* other than the unit's 0, other than one onshore unit)."""
+    from plant.emt.service_backend import EmtServiceBackend
+    from plant.params import PlantParams
+
+    if cfg.batteries:
+        raise ValueError("plant.model emt has no batteries (its farm is one aggregated injection at the PCC)")
+    if cfg.onshore_units != 1:
+        raise ValueError(f"plant.model emt is the paper's comparison arrangement: it needs topology.onshore_units: 1 "
+                         f"(its SDViSC, host wt6_1), not {cfg.onshore_units}")
+    n_farm = PlantParams().n_clusters * FARM_TURBINES_PER_CLUSTER
+    indices = [farm_index(name, n_farm, 1) for name in names]
+    refused = {name: p for name, p in cfg.p_star.items() if p != 0.0 or farm_index(name, n_farm, 1) != n_farm}
+    if refused:
+        raise ValueError(f"plant.model emt runs its SDViSC at P* = 0 and has no farm turbine of its own: "
+                         f"p_star {refused} cannot be applied")
+    model = EmtServiceBackend(n_farm, cfg.step_s, grid=cfg.grid.given(), remote_apply=cfg.remote_apply,
+                              remote_loss_fallback_s=cfg.remote_loss_fallback_s, duration_s=cfg.duration_s)
+    return model, indices
 
 
 def apply_set(model, event: dict) -> dict:

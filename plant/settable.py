@@ -13,7 +13,8 @@ import importlib
 import inspect
 
 # plant.model value -> (module, class); the same choice as plant/service.py build_model
-MODELS = {"minimal": ("plant.minimal", "MinimalPlant"), "full": ("plant.sim", "Plant")}
+MODELS = {"minimal": ("plant.minimal", "MinimalPlant"), "full": ("plant.sim", "Plant"),
+          "emt": ("plant.emt.service_backend", "EmtServiceBackend")}
 # timeline action -> the model method the plant service calls for it
 ACTIONS = {"load_step": "load_step", "fault": "fault", "scr": "set_scr"}
 _NUMBER = (float, int, bool)

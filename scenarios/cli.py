@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 
 from scenarios.cli_services import add_parsers as add_service_parsers
-from scenarios.summary import ADVICE_VERDICT
+from scenarios.summary import ADVICE_VERDICT, NOT_COUNTED
 from scenarios.switch_links import SWITCH_LINK_KINDS
 from scenarios.switch_ports import SWITCH_PORT_TYPES
 
@@ -50,7 +50,8 @@ def _overrides(args) -> list:
              ("--switch-ports", ("switch_ports",), args.switch_ports, args.switch_ports),
              ("--switch-links", ("switch_links",), args.switch_links, args.switch_links),
              ("--cpu-split", ("cpu_split",), args.cpu_split, args.cpu_split == "on"),
-             ("--pcap", ("capture", "pcap"), True if args.pcap else None, True)]
+             ("--pcap", ("capture", "pcap"), True if args.pcap else None, True),
+             ("--plant", ("plant", "model"), args.plant, args.plant)]
     return [Override(option, "" if option == "--pcap" else f"{typed:g}" if isinstance(typed, float) else str(typed),
                      key, value)
             for option, key, typed, value in given if typed is not None]
@@ -124,14 +125,20 @@ def _seconds(text: str) -> float:
 
 
 def _print_result(summary: dict, out: Path) -> None:
-    print(f"sdvisc: {summary['scenario']}: {summary['steps']} steps of {summary['step_s'] * 1e3:.2f} ms, "
-          f"{summary['late_steps']} late")
+    if summary["steps"] is None:  # a real card (scenarios/summary_turbines.py): its steps are its own
+        print(f"sdvisc: {summary['scenario']}: {summary['duration_s']:g} s on the run's clock, steps of "
+              f"{summary['step_s'] * 1e3:.2f} ms {NOT_COUNTED}; {(summary.get('peer') or {}).get('counted_at')}")
+    else:
+        print(f"sdvisc: {summary['scenario']}: {summary['steps']} steps of {summary['step_s'] * 1e3:.2f} ms, "
+              f"{summary['late_steps']} late")
     for name, t in summary["turbines"].items():
-        p = t["packets"]
+        p = {k: "n/a" if v is None else v for k, v in t["packets"].items()}  # n/a: a real card counts nothing
         d = t["one_way_delay_ms"]["meas_to_sdc"] or {}
         one_way = f"one-way p50={d['p50']:.2f} ms" if d.get("p50") is not None else "one-way: not stamped"
         print(f"  {name}: meas_tx={p['meas_tx']} meas_rx_sdc={p['meas_rx_sdc']} ctrl_tx_sdc={p['ctrl_tx_sdc']} "
               f"ctrl_rx={p['ctrl_rx']} ak_tx={p['ak_tx']}  {one_way}{_by_sdc(t, summary)}")
+    for sdc, part in summary.get("sdc_stats_partial", {}).items():
+        print(f"sdvisc: note: {sdc}'s counts are those it had written by t = {part['as_of_t']} s ({part['why']})")
     conflicts = sorted({e["wt"] for e in summary.get("events", []) if e.get("type") == "ak_conflict"})
     if conflicts:  # two live AK streams for one turbine: someone on its LAN sends AKs in its name (docs/sdn.md)
         print(f"sdvisc: warning: {summary['sdn_counters'].get('ak_conflict', len(conflicts))} AK conflict(s) for "
@@ -227,6 +234,9 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--switch-links", choices=SWITCH_LINK_KINDS, default=None,
                    help="how switches are joined (overrides the scenario's switch_links): veth pairs, or patch ports "
                         "(every bridge of a path in one datapath pass; a failed link is removed)")
+    p.add_argument("--plant", default=None, metavar="MODEL",
+                   help="the plant model (overrides the scenario's plant.model, validated as that key): minimal, "
+                        "full, or emt (the paper's comparison arrangement in EMT on DPsim, docs/plant.md)")
     p.add_argument("--cpu-split", choices=("on", "off"), default=None,
                    help="on: Open vSwitch's threads on a CPU of their own, the run's processes on the others "
                         "(overrides the scenario's cpu_split)")

@@ -280,6 +280,9 @@ class _Parts:
             problems.append((("topology", "onshore_units"), f"onshore units are converters of the full farm "
                              f"model (PlantParams.onshore_units) or the EMT arrangement's SDViSC: needs plant.model: "
                              f"full or emt, not {self.model}"))
+        if self.model == "emt" and self.topology.option("onshore_units") != 1:
+            problems.append((("plant", "model"), "plant.model emt is the paper's comparison arrangement: it needs "
+                             "topology.onshore_units: 1 (its SDViSC, host wt6_1; the farm is one aggregated injection)"))
         for i, event in self.events:
             if event.do == "set" and event.param not in settable:
                 problems.append((("timeline", i, "param"),

@@ -16,8 +16,19 @@ import platform
 import time
 from pathlib import Path
 
+from scenarios import peer_tap
 from scenarios.impairments import summary_section as impairments_section
 from scenarios.interruptions import FAULT_TYPES, RESTORE_TYPES, interruptions
+from scenarios.summary_turbines import (  # noqa: F401 - round_trip: part of this module's interface
+    NOT_COUNTED,
+    long_gaps,
+    meas_resumed,
+    peer_as_plant,
+    round_trip,
+    sdc_stats_missing,
+    sdc_stats_partial,
+    turbine_rows,
+)
 
 SUMMARY_VERSION = 1
 
@@ -64,14 +75,6 @@ def _wall_to_t(events: list[dict], t0: float | None, source: str) -> list[dict]:
 DETECT_TYPES = ("dr", "port_status", "sdc_failover", "no_path", "path_restored")
 GAP_MATCH_S = 0.010
 MIN_INTERRUPTION_S = 0.020  # shorter gaps without an SDN reaction are jitter, not a fault's effect  # a control-packet gap belongs to a fault if it starts at most this long after it
-
-
-SUMMARY_GAP_S = 0.005  # turbines.<wt>.ctrl_gaps and recoveries list pauses longer than this (interruptions: all)
-
-
-def long_gaps(stats: dict) -> list:
-    """The plant's recorded control pauses longer than :data:`SUMMARY_GAP_S` (run clock)."""
-    return [(a, b) for a, b in stats.get("ctrl_gaps_wall", []) if b - a > SUMMARY_GAP_S]
 
 
 def recoveries(faults: list[dict], plant_turbines: dict, events: list[dict], t0: float | None,
@@ -186,31 +189,6 @@ def time_advice(k: float, steps: int, late_steps: int, within_one: dict[str, flo
             f"run again with --time-scale {2 * k:g}")
 
 
-def round_trip(histogram: dict | None) -> dict | None:
-    """MEAS → CTRL round trip, in samples, of the control answers a turbine applied: the count per
-    number of samples, the share within one sample (the paper's one-sample loop) and the median."""
-    if not histogram:
-        return None
-    total = sum(histogram.values())
-    order = sorted(histogram, key=lambda key: int(key.lstrip(">")) + (1 if key.startswith(">") else 0))
-    acc, median = 0, None
-    for key in order:
-        acc += histogram[key]
-        if median is None and acc * 2 >= total:
-            median = key
-    return {"counts": {key: histogram[key] for key in order}, "within_one": round(histogram.get("1", 0) / total, 4),
-            "median": median}
-
-
-def meas_resumed(sdcs: dict) -> dict[str, list]:
-    """Per turbine, where its MEAS got through again after a loss, from every SDC's statistics."""
-    out: dict[str, list] = {}
-    for stats in sdcs.values():
-        for wt, row in stats.get("turbines", {}).items():
-            out.setdefault(wt, []).extend(row.get("meas_resumed", []))
-    return out
-
-
 def cpu_section(run, steps: int, plant_cpu_s: float | None = None) -> dict:
     """CPU seconds each process used from t = 0 to the end (/proc), and per plant step in µs."""
     used = dict(getattr(run, "cpu_used", {}) or {})
@@ -220,25 +198,15 @@ def cpu_section(run, steps: int, plant_cpu_s: float | None = None) -> dict:
             for name, s in sorted(used.items())}
 
 
-def peer_as_plant(card: dict, sdcs: dict) -> dict:
-    """An external peer's counts in the plant statistics' shape: the emulated card's own
-    (``gtnet_card_stats.json``), else — a real card counts nothing for us — the turbines the SDCs
-    heard from, with what they sent them (MEAS received, CTRL sent)."""
-    if card:
-        turbines = {n: {**t, "rx_rejected": t.get("rejected_total", 0)} for n, t in card.get("turbines", {}).items()}
-        return {**card, "turbines": turbines}
-    names = sorted({n for d in sdcs.values() for n in d.get("turbines", {})})
-    return {"turbines": {n: {} for n in names}}
-
-
 def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
     out: Path = run.out
     sc = run.scenario
     card = _read_json(out / "gtnet_card_stats.json")
     plant = _read_json(out / "plant_stats.json")
     sdcs = {p.stem.split("_")[0]: _read_json(p) for p in sorted(out.glob("sdc*_stats.json"))}
+    tap = peer_tap.read(run) if sc.plant.model == "external" else None  # a real card: its cable's capture
     if sc.plant.model == "external":
-        plant = peer_as_plant(card, sdcs)
+        plant = peer_as_plant(card, sdcs, tap)
     owfcc = _read_json(out / "owfcc_stats.json")
     sdn_states = [st for st in (_read_json(out / "sdn_state.json"), _read_json(out / "sdn2_state.json")) if st]
     in_charge = [st for st in sdn_states if st.get("role") in ("master", "equal", None)]
@@ -262,33 +230,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         for e in events:
             fh.write(json.dumps(e) + "\n")
 
-    turbines = {}
-    for name, stats in sorted(plant.get("turbines", {}).items()):
-        sdc_rows = {s: d.get("turbines", {}).get(name, {}) for s, d in sdcs.items()}
-        meas_rx = sum(r.get("meas_rx", 0) for r in sdc_rows.values())
-        ctrl_tx = sum(r.get("ctrl_tx", 0) for r in sdc_rows.values())
-        if not (stats.get("meas_tx") or stats.get("ctrl_rx") or meas_rx or ctrl_tx or stats.get("requests_rx")):
-            continue  # a turbine that never took part is left out to keep the summary readable
-        turbines[name] = {
-            "packets": {"meas_tx": stats.get("meas_tx", 0), "meas_rx_sdc": meas_rx, "ctrl_tx_sdc": ctrl_tx,
-                        "ctrl_rx": stats.get("ctrl_rx", 0), "ak_tx": stats.get("ak_tx", 0),
-                        "ctrl_stale": stats.get("ctrl_stale", 0), "rx_rejected": stats.get("rx_rejected", 0)},
-            "per_sdc": {s: {k: r.get(k, 0) for k in ("meas_rx", "ctrl_tx", "meas_lost", "meas_stale",
-                                                       "meas_inactive")} | {
-                            "first_meas_rx_t": r.get("first_meas_rx_t")} for s, r in sdc_rows.items() if r},
-            "first_meas_tx_t": stats.get("first_meas_tx_t"),
-            "first_ctrl_rx_t": stats.get("first_ctrl_rx_t"),
-            "last_ctrl_rx_t": stats.get("last_ctrl_rx_t"),
-            "ak_ones": stats.get("ak_ones", 0),
-            "ctrl_gaps": [[round(a - run.t0, 6), round(b - run.t0, 6)] for a, b in long_gaps(stats)]
-            if run.t0 else [],
-            "takeover_jump_pu": stats.get("takeover_jump_pu"),
-            "round_trip_samples": round_trip(stats.get("rtt_samples")),
-            "one_way_delay_ms": {
-                "meas_to_sdc": next((r.get("meas_one_way_ms") for r in sdc_rows.values() if r.get("meas_one_way_ms")), None),
-                "ctrl_to_turbine": stats.get("ctrl_one_way_ms"),
-            },
-        }
+    turbines = turbine_rows(plant, sdcs, run.t0)
     return {
         "summary_version": SUMMARY_VERSION,
         "scenario": sc.name,
@@ -312,7 +254,8 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "fallbacks": plant.get("fallbacks", {}),
         "frequency_hz": plant.get("frequency_hz", {}),
         "batteries": plant.get("batteries", {}),
-        "peer": {k: card.get(k) for k in ("framing", "stream", "steps", "late_steps", "totals", "wire")} if card else None,
+        "peer": ({k: card.get(k) for k in ("framing", "stream", "steps", "late_steps", "totals", "wire")} if card
+                 else real_peer_section(run, tap)),
         "external": run.external.describe() if getattr(run, "external", None) else None,  # scenarios/external.py
         "cluster": run.cluster.describe() if getattr(run, "cluster", None) else None,  # scenarios/cluster_run.py
         "t0_wall": run.t0,
@@ -335,6 +278,7 @@ def build_summary(run, *, completed: bool, source: str | None = None) -> dict:
         "processes_exited_early": {n: c for n, c in run.exited_early.items() if n not in run.killed},
         "processes_killed": sorted(run.killed),
         "sdc_stats_missing": sdc_stats_missing(run, sdcs),
+        "sdc_stats_partial": sdc_stats_partial(run, sdcs),
         "openflow": openflow_section(sdn),
         "controllers": {f"instance{st.get('instance', 1)}": {"role": st.get("role"), "generation": st.get("generation"),
                                                             "openflow": st.get("openflow", {})} for st in sdn_states},
@@ -372,11 +316,17 @@ def openflow_section(sdn: dict) -> dict:
     return of
 
 
-def sdc_stats_missing(run, sdcs: dict) -> dict[str, str]:
-    """The SDCs the run started that left no statistics (an SDC writes them when it ends; one killed
-    with SIGKILL cannot): their MEAS and CTRL are missing from every turbine's ``meas_rx_sdc`` and
-    ``ctrl_tx_sdc`` (which add up ``per_sdc``), so those can be below ``meas_tx`` / ``ctrl_rx``."""
-    procs = getattr(getattr(run, "processes", None), "procs", {})
-    started = sorted({name.split(".")[0] for name in procs if name.endswith(".sdc")})
-    return {s: "killed" if f"{s}.sdc" in run.killed else "ended without writing them"
-            for s in started if s not in sdcs}
+def real_peer_section(run, tap: dict | None) -> dict | None:
+    """summary.json ``peer`` for a real card (the run did not start it): where its counts come from,
+    to what resolution, and what nobody counted (``None`` in the rows: :data:`NOT_COUNTED`)."""
+    peer = run.scenario.plant.peer
+    if peer is None or peer.emulate:
+        return None
+    return {"emulated": False, "framing": peer.framing, "counted_at": (
+                f"capture on {peer.interface} (tcpdump; scenarios/peer_tap.py)" if tap else
+                "nothing of the card's side (no capture): MEAS and CTRL as the SDCs counted them"),
+            "captured": tap["captured"] if tap else None,
+            "resolution": {"ctrl_gaps": "capture timestamps (kernel, 1 us) on the run clock, at the card's cable",
+                           "ak_zero": f"one AK period ({run.scenario.plant.ak_period_s * 1e3:g} ms)",
+                           "time": "the run's clock (t = 0 when the services were ready)"},
+            "not_counted": ["steps", "late_steps", "ctrl_stale", "rx_rejected", "round_trip_samples"]}
