@@ -45,8 +45,6 @@ from sdc_unit.bank import ControllerBank
 from sdc_unit.params import ViscParams
 from sdvisc.vocabulary import MEAS_FIELDS, VISC_PARAMS, mask_of
 
-TURBINES_PER_CLUSTER = 10
-
 
 @dataclass(frozen=True)
 class ServiceConditions:

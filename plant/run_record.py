@@ -1,6 +1,7 @@
 """Read back what a network run's plant recorded, for :mod:`plant.cosim_service`.
 
-From a run's output directory: ``plant_stats.json`` (the plant service's applied events, with the
+From a run's output directory: ``plant_config.json`` (each turbine's converter, ``plant_index``),
+``plant_stats.json`` (the plant service's applied events, with the
 iteration each was applied in, and per turbine the first MEAS and CTRL), ``timeseries.csv``
 (recorded with ``record_every: 1``: |V_pcc|, per turbine Q, the applied CTRL's δ and E, the control's
 age ``ctrl_lag``) and ``summary.json`` (the SDC's first used MEAS). :func:`read_run` returns the
@@ -16,14 +17,19 @@ from pathlib import Path
 
 import numpy as np
 
-from plant.cosim_service import TURBINES_PER_CLUSTER, ServiceConditions, unwrap_finite
-from sdvisc import wire
+from plant.cosim_service import ServiceConditions, unwrap_finite
 
 
-def farm_index(name: str) -> int:
-    """Farm turbine index of host ``wt<c>_<n>`` (as :func:`plant.service.build_model`)."""
-    cluster, number = wire.parse_turbine(name)
-    return (cluster - 1) * TURBINES_PER_CLUSTER + number - 1
+def plant_indices(out: Path) -> dict[str, int]:
+    """Each turbine host's converter in the full plant model, as the run's plant was told it
+    (``plant_config.json``: the topology's description, ``HostInfo.plant_index``)."""
+    config = json.loads((out / "plant_config.json").read_text())
+    found = {t["name"]: t.get("plant_index") for t in config["turbines"]}
+    missing = sorted(name for name, index in found.items() if index is None)
+    if missing:
+        raise ValueError(f"{out}/plant_config.json: no plant_index for {', '.join(missing[:3])}: a run from before "
+                         f"the topology wrote it (run again)")
+    return found
 
 
 def _step_of(t: float, step_s: float) -> int:
@@ -55,7 +61,8 @@ def read_run(out_dir: str | Path, turbines: list[str], step_s: float = 0.67e-3) 
     def col(suffix: str) -> np.ndarray:
         return np.array([[float(r[f"{wt}.{suffix}"]) for wt in turbines] for r in rows])
 
-    cond = ServiceConditions(visc_turbines=tuple(farm_index(wt) for wt in turbines),
+    index = plant_indices(out)
+    cond = ServiceConditions(visc_turbines=tuple(index[wt] for wt in turbines),
                              start_steps=tuple(starts[wt] for wt in turbines), first_used_seq=tuple(first_used),
                              fault_steps=faults, n_steps=len(rows), step_s=step_s)
     traces = {"t": t, "v_pcc": np.array([[float(r["v_pcc"])] for r in rows]), "q": col("q"),
