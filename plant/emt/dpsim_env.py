@@ -54,19 +54,24 @@ def dpsim():
 
 @contextlib.contextmanager
 def native_stdout_silenced():
-    """File descriptor 1 sent to /dev/null for the block: DPsim's C++ prints "Handle event time ..." on
-    every switch event straight to the process's stdout (neither ``LogLevel.off`` nor the Python streams
-    reach it), which would land in the report's output. Python's buffer is flushed before, so what it
-    wrote earlier still appears; what anything writes to stdout inside the block is discarded (the run
-    loops print nothing; stderr is untouched)."""
-    sys.stdout.flush()
-    saved = os.dup(1)
+    """File descriptors 1 and 2 sent to /dev/null for the block: DPsim's C++ prints "Handle event time ..."
+    on every switch event straight to the process's stdout and "[... MnaSolverFactory info] creating
+    KLUAdapter ..." to its stderr at every start (neither ``LogLevel.off`` nor the Python streams reach
+    them), which would land in the report's output. Python's buffers are flushed before, so what it wrote
+    earlier still appears; what anything writes to them inside the block is discarded (the run loops print
+    nothing; an exception raised inside propagates and is printed after the block)."""
+    for stream in (sys.stdout, sys.stderr):
+        stream.flush()
+    saved = [os.dup(1), os.dup(2)]
     devnull = os.open(os.devnull, os.O_WRONLY)
     try:
         os.dup2(devnull, 1)
+        os.dup2(devnull, 2)
         yield
     finally:
-        sys.stdout.flush()
-        os.dup2(saved, 1)
-        os.close(saved)
+        for stream in (sys.stdout, sys.stderr):
+            stream.flush()
+        for fd, copy in zip((1, 2), saved):
+            os.dup2(copy, fd)
+            os.close(copy)
         os.close(devnull)

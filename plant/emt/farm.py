@@ -65,8 +65,10 @@ def phasor_farm_plant(n_visc: int, m_q, with_sc: bool = False, **grid):
     return p
 
 
-def build_case(n_visc: int, m_q, with_sc: bool = False, **grid) -> tuple[FarmCircuit, object]:
-    """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from)."""
+def build_case(n_visc: int, m_q, with_sc: bool = False, r_fault: float = arrangement.R_FAULT,
+               **grid) -> tuple[FarmCircuit, object]:
+    """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from); ``r_fault``:
+    the SLG fault's resistance when closed (p.u., network base)."""
     p = phasor_farm_plant(n_visc, m_q, with_sc, **grid)
     nw, pp = p.net, p.params
     g, t = pp.grid, pp.turbine
@@ -98,8 +100,8 @@ def build_case(n_visc: int, m_q, with_sc: bool = False, **grid) -> tuple[FarmCir
         n.add("L", "grid_l", "grid_mid", "pcc", (zg.imag, zg.imag))
         n.add("L", "zero_seq_ground", "pcc", netlist.GND, (arrangement.OPEN_SEQUENCE_X, nw.z_ontr().imag))
         n.add("R", "damping", "pcc", netlist.GND, arrangement.R_DAMP)
-        n.add("S", "fault", "pcc", netlist.GND, (arrangement.R_OPEN, [arrangement.R_FAULT, arrangement.R_OPEN,
-                                                                      arrangement.R_OPEN]))
+        n.add("S", "fault", "pcc", netlist.GND, (arrangement.R_OPEN, [max(r_fault, arrangement.R_FAULT),
+                                                                      arrangement.R_OPEN, arrangement.R_OPEN]))
         series = (("otr", "col", "os_hv", z_otr, arrangement.OPEN_SEQUENCE_X),  # YNd: no zero sequence
                   ("export", "os_hv", "on_hv", z_export, z_export.imag),
                   ("ontr", "on_hv", "pcc", nw.z_ontr(), arrangement.OPEN_SEQUENCE_X))
@@ -158,8 +160,8 @@ class EmtFarm:
     positive-sequence voltage (devices.FarmInjection, its fault ride-through)."""
 
     def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
-                 steps_per_ts: int = STEPS_PER_TS, **grid):
-        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, **grid)
+                 steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT, **grid):
+        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, **grid)
         self.h = TS_S / steps_per_ts
         self.n_sub = steps_per_ts
         pp = self.phasor_plant.params
