@@ -31,6 +31,7 @@ import subprocess
 from dataclasses import dataclass, field
 
 from host_tools.cleanup import PEER_NETNS, veth_names
+from scenarios import peer_tap
 from scenarios.netprep import CONTROLLER_MAX_BACKOFF_MS
 from scenarios.schema import Scenario
 from sdvisc import wire
@@ -208,8 +209,10 @@ class ExternalDevices:
 
     def start_peer(self, run, sdc_ip: str) -> float:
         """Start the emulated card as the run's ``plant`` process (in the peer's namespace); returns t = 0
-        (the run clock's reading when the card is ready). A real peer is already sending: t = 0 is now."""
+        (the run clock's reading when the card is ready). A real peer is already sending: t = 0 is now,
+        and the run captures its traffic on the interface cabled to it (:mod:`scenarios.peer_tap`)."""
         if not self.peer.emulate:
+            peer_tap.start(run, self.peer.interface, self.peer.ip)
             return run.clock.now() + START_MARGIN_S
         duration = None if run.session is not None else self.scenario.duration_s
         path = run.out / "peer_config.json"

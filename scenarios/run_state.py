@@ -27,7 +27,22 @@ class RunState:
         return max(masters or states, key=lambda s: (s.get("generation", 0), s.get("t_wall", 0)))
 
     def plant_status(self) -> dict | None:
-        return self._read_state("plant_status.json") or self._read_state("gtnet_card_status.json")
+        """The plant's live status; for a real card (which writes none for us) ``t_sim`` from the run's
+        clock (issue 42: the progress bar stayed at t = 0 for a whole run)."""
+        status = self._read_state("plant_status.json") or self._read_state("gtnet_card_status.json")
+        peer = self.scenario.plant.peer
+        if status is None and peer is not None and not peer.emulate and self.t0 is not None:
+            return {"t_sim": round(max(0.0, self.clock.now() - self.t0), 6)}
+        return status
+
+    def progress_status(self) -> dict:
+        """:meth:`plant_status` for the progress line: what a real card's run cannot count shown as
+        ``n/a``, not 0."""
+        status = self.plant_status() or {}
+        peer = self.scenario.plant.peer
+        if peer is not None and not peer.emulate and "meas_tx" not in status:
+            status = {**status, "late_steps": "n/a", "meas_tx": "n/a", "ctrl_rx": "n/a"}
+        return status
 
     def current_path_link(self, wt: str, hop: int) -> tuple[str, str] | None:
         """The ``hop``-th switch-to-switch link of ``wt``'s installed path (SDC side first)."""

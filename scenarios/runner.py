@@ -320,7 +320,7 @@ class Run(RunState):
     def _progress(self, tty: bool, final: bool = False) -> None:
         if self.quiet:
             return
-        line = progress_line(self.plant_status() or {}, self.scenario.duration_s)
+        line = progress_line(self.progress_status(), self.scenario.duration_s)
         if tty:
             print("\r" + line.ljust(110), end="\n" if final else "", flush=True)
         else:
