@@ -146,6 +146,8 @@ class _Parts:
     @classmethod
     def of_scenario(cls, sc: Scenario) -> _Parts:
         turbines = [(("sdn", "visc_disabled", j), n) for j, n in enumerate(sc.sdn.visc_disabled)]
+        turbines += [(("sdn", "managers", j, "turbines", k), n) for j, m in enumerate(sc.sdn.managers)
+                     for k, n in enumerate(m.turbines or [])]
         turbines += [(("plant", "record", j), n) for j, n in enumerate(sc.plant.record or [])]
         if sc.plant.batteries is not None:
             turbines += [(("plant", "batteries", "turbines", j), n) for j, n in enumerate(sc.plant.batteries.turbines)]

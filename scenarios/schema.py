@@ -36,6 +36,8 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from plant.params import BatteryParams
 from scenarios.cluster_spec import ClusterSpec
 from scenarios.external_spec import ExternalSwitchSpec, PeerSpec
+from sdn_app.managers import MANAGERS
+from sdn_app.path_policies import PATH_POLICIES
 from sdvisc.config import (
     BatterySoc,
     DelayMs,
@@ -176,6 +178,16 @@ class SdnSpec(SdnOptions):
     """The ``sdn`` section: :class:`sdvisc.config.SdnOptions` and whether a second SDN app runs."""
 
     redundancy: bool = Field(False, description="run a second SDN app instance as OpenFlow slave that takes over")
+
+    @model_validator(mode="after")
+    def _known_managers_and_path_policy(self):
+        """Names from the SDN app's registries (sdn_app.managers, sdn_app.path_policies)."""
+        unknown = sorted({m.name for m in self.managers} - set(MANAGERS))
+        if unknown:
+            raise ValueError(f"managers: unknown {unknown}; known: {sorted(MANAGERS)}")
+        if self.path_policy not in PATH_POLICIES:
+            raise ValueError(f"path_policy: unknown {self.path_policy!r}; known: {sorted(PATH_POLICIES)}")
+        return self
 
     @model_validator(mode="after")
     def _one_intake_socket(self):

@@ -1,4 +1,4 @@
-"""1+1 duplication of a path (``sdn.duplicate_paths``): every packet also travels a second leg.
+"""1+1 duplication of a path (the ``duplication`` manager, ``sdn.duplicate_paths``): every packet also travels a second leg.
 
 Pure. Between the path's first and last OpenFlow switch (``A`` on the SDC's side, ``B`` on the
 turbine's), the second leg is the shortest way from ``A`` to ``B`` through OpenFlow switches only
@@ -23,7 +23,7 @@ from __future__ import annotations
 import networkx as nx
 
 from sdn_app import flows as fl
-from sdn_app.paths import choose_path, path_links
+from sdn_app.paths import path_links
 
 
 def segment(path: list[str], dpids: dict[str, int]) -> tuple[int, int] | None:
@@ -33,17 +33,16 @@ def segment(path: list[str], dpids: dict[str, int]) -> tuple[int, int] | None:
     return (on[0], on[-1]) if len(on) >= 2 else None
 
 
-def second_leg(graph: nx.Graph, dpids: dict[str, int], path: list[str],
-               down: set[frozenset] | frozenset = frozenset()) -> list[str] | None:
-    """The second leg ``A … B`` for ``path`` (SDC first), or None (see the module docstring)."""
+def second_leg(route, dpids: dict[str, int], path: list[str]) -> list[str] | None:
+    """The second leg ``A … B`` for ``path`` (SDC first), or None (see the module docstring).
+    ``route(src, dst, avoid=…, nodes=…)`` chooses a path around the links known down
+    (:meth:`sdn_app.state.SdnState.path_to`)."""
     ends = segment(path, dpids)
     if ends is None:
         return None
     i_a, i_b = ends
-    inner = set(path[i_a + 1:i_b])
-    allowed = {n for n in graph.nodes if n in dpids and n not in inner}
-    view = nx.subgraph_view(graph, filter_node=lambda n: n in allowed)
-    leg = choose_path(view, path[i_a], path[i_b], down=down, avoid=set(path_links(path[i_a:i_b + 1])))
+    allowed = frozenset(dpids) - set(path[i_a + 1:i_b])
+    leg = route(path[i_a], path[i_b], avoid=frozenset(path_links(path[i_a:i_b + 1])), nodes=allowed)
     return leg if leg is not None and len(leg) >= 2 else None
 
 

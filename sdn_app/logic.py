@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from sdn_app import flows as fl
 from sdn_app import udp_frame
+from sdn_app.managers import enabled_managers
 from sdn_app.messages import Messenger
 from sdn_app.recovery import Recovery
 from sdn_app.requests import Requests
@@ -38,7 +39,10 @@ class Controller:
     def __init__(self, config: AppConfig, now: float = 0.0) -> None:
         self.state = SdnState(config)
         self.messenger = Messenger(self.state)
-        self.routing = Routing(self.state, self.messenger, is_dead=lambda sdc: sdc in self.guard.dead)
+        turbines = {n for n, h in config.topology.hosts.items() if h.role == "turbine"}
+        self.managers = enabled_managers(config.manager_selection(), turbines)
+        self.routing = Routing(self.state, self.messenger, is_dead=lambda sdc: sdc in self.guard.dead,
+                               managers=self.managers)
         self.guard = SdcGuard(self.state, self.routing, self.messenger)
         self.recovery = Recovery(self.state, self.routing, self.messenger)
         self.requests = Requests(self.state, self.routing, self.messenger, self.recovery)

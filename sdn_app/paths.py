@@ -1,22 +1,25 @@
-"""Path choice over the known topology (networkx), with failed links excluded."""
+"""The known topology as a graph (networkx) and path choice over it, failed links excluded; which
+path among those left is the path policy's (:mod:`sdn_app.path_policies`)."""
 
 from __future__ import annotations
 
 import networkx as nx
 
+from sdn_app.path_policies import PATH_POLICIES
 from sdvisc.config import TopologyInfo
 
 
 def build_graph(topology: TopologyInfo) -> nx.Graph:
-    """Graph of switches and hosts; each edge knows the port on each end (``ports[node]``)."""
+    """Graph of switches and hosts; each edge knows the port on each end (``ports[node]``) and its
+    one-way delay (``delay_s``, 0 when unknown and on host links)."""
     graph = nx.Graph()
     for name, sw in topology.switches.items():
         graph.add_node(name, kind="switch", dpid=sw.dpid, openflow=sw.openflow)
     for name, host in topology.hosts.items():
         graph.add_node(name, kind="host")
-        graph.add_edge(name, host.switch, ports={host.switch: host.port, name: 0})
+        graph.add_edge(name, host.switch, ports={host.switch: host.port, name: 0}, delay_s=0.0)
     for link in topology.links:
-        graph.add_edge(link.a, link.b, ports={link.a: link.a_port, link.b: link.b_port})
+        graph.add_edge(link.a, link.b, ports={link.a: link.a_port, link.b: link.b_port}, delay_s=link.delay_s)
     return graph
 
 
@@ -25,19 +28,15 @@ def link_key(a: str, b: str) -> frozenset:
 
 
 def choose_path(graph: nx.Graph, src: str, dst: str, down: set[frozenset] | frozenset = frozenset(),
-                avoid: set[frozenset] | frozenset = frozenset()) -> list[str] | None:
-    """Shortest path ``src`` → ``dst`` that uses no link in ``down`` or ``avoid``; None if none.
-
-    Ties are broken deterministically (lexicographically smallest node sequence) so a run is
-    reproducible.
-    """
+                avoid: set[frozenset] | frozenset = frozenset(), nodes: set[str] | frozenset | None = None,
+                policy: str = "hops") -> list[str] | None:
+    """The path ``policy`` prefers from ``src`` to ``dst`` using no link in ``down`` or ``avoid``
+    (and, given ``nodes``, no other node); None if there is none. The app reaches it only through
+    :meth:`sdn_app.state.SdnState.path_to`, with the scenario's policy."""
     excluded = set(down) | set(avoid)
-    view = nx.subgraph_view(graph, filter_edge=lambda a, b: link_key(a, b) not in excluded)
-    try:
-        paths = list(nx.all_shortest_paths(view, src, dst))
-    except (nx.NetworkXNoPath, nx.NodeNotFound):
-        return None
-    return min(paths)
+    view = nx.subgraph_view(graph, filter_node=(lambda n: n in nodes) if nodes is not None else nx.filters.no_filter,
+                            filter_edge=lambda a, b: link_key(a, b) not in excluded)
+    return PATH_POLICIES[policy](view, src, dst)
 
 
 def path_links(path: list[str]) -> list[frozenset]:

@@ -16,7 +16,7 @@ from __future__ import annotations
 import networkx as nx
 
 from sdn_app import flows as fl
-from sdn_app.paths import choose_path, link_key
+from sdn_app.paths import link_key
 
 
 def _port(graph: nx.Graph, a: str, b: str) -> int:
@@ -24,11 +24,12 @@ def _port(graph: nx.Graph, a: str, b: str) -> int:
 
 
 def protect_direction(graph: nx.Graph, dpids: dict[str, int], path: list[str], match: dict, cookie: int,
-                      down: set, next_group_id) -> tuple[dict[str, tuple], list, list]:
+                      down: set, next_group_id, route) -> tuple[dict[str, tuple], list, list]:
     """Protection for packets travelling along ``path`` (host to host) with ``match``.
 
     Returns (group action per switch to use instead of its primary output, group adds, detour
-    flow adds). ``next_group_id(dpid)`` allocates group ids.
+    flow adds). ``next_group_id(dpid)`` allocates group ids; ``route(src, dst, avoid=…)`` chooses
+    a path around the links ``down`` (:meth:`sdn_app.state.SdnState.path_to`).
     """
     replace: dict[str, tuple] = {}
     groups: list = []
@@ -42,7 +43,7 @@ def protect_direction(graph: nx.Graph, dpids: dict[str, int], path: list[str], m
         for z in sorted(graph.neighbors(entry)):
             if z not in dpids or z == path[2] or link_key(entry, z) in down:
                 continue
-            way = choose_path(graph, z, path[-1], down=down)
+            way = route(z, path[-1])
             if way is None:
                 continue
             detours += _detour_flows(graph, dpids, [entry] + way, match, cookie, on_path, rejoin_after=1)
@@ -54,7 +55,7 @@ def protect_direction(graph: nx.Graph, dpids: dict[str, int], path: list[str], m
         protected = link_key(x, succ)
         if graph.nodes[succ].get("kind") == "host":
             continue  # the last hop to a host cannot be protected
-        detour = choose_path(graph, x, path[-1], down=down, avoid={protected})
+        detour = route(x, path[-1], avoid=frozenset({protected}))
         if detour is None or len(detour) < 2:
             continue
         first = detour[1]

@@ -3,8 +3,9 @@ packets (``DR_i``, confirmed by :mod:`sdn_app.dr`), when a link of a path goes d
 and when no path is left. Pure: each call takes ``now`` and returns :mod:`sdn_app.flows` actions.
 
 * **DR**: reroute around the failure — avoid links known down (port status), else take a path
-  link-disjoint from the current one (the two host links excepted); with dynamic routing off, log
-  ``dr_not_acted`` only (the paper's "without DR").
+  link-disjoint from the current one (the two host links excepted); for a turbine without the
+  ``dynamic_routing`` manager, log ``dr_not_acted`` only (the paper's "without DR").
+* **Links**: the managers' ``on_link`` hooks (:mod:`sdn_app.managers`), then healing and reprotection.
 * **Partition**: no path → one ``no_path`` event, T3 ``x/0``, nothing retried until a link comes up;
   then the path is installed again (``path_restored``) and the turbine re-engaged.
 """
@@ -24,57 +25,37 @@ class Recovery:
         self.state = state
         self.routing = routing
         self.messenger = messenger
+        self.managers = routing.managers
+        self._by_link_order = sorted(self.managers, key=lambda m: m.LINK_ORDER)  # (stable: registry order within one)
         self.partitioned: dict[str, float] = {}  # turbines with no path to their SDC, since (t_loss)
 
     def on_dr(self, due: list[tuple[str, float]], now: float) -> list:
-        """Act on the turbines whose DR is confirmed."""
+        """Act on the turbines whose DR is confirmed: the first manager enabled for the turbine
+        that acts (``dynamic_routing``); without one, log ``dr_not_acted`` only."""
         st = self.state
         actions: list = []
         for name, t_loss in due:
-            if st.config.dynamic_routing:
-                actions += self.reroute(name, "dr", now, t_loss=t_loss)
+            acted = None
+            for manager in self.managers:
+                if manager.selects(name) and (acted := manager.on_dr(self, name, t_loss, now)) is not None:
+                    break
+            if acted is not None:
+                actions += acted
             else:
                 st.tables.set_comm(name, comm_on=False)
                 st.event(now, "dr_not_acted", wt=name, t_loss=t_loss, reason="dynamic routing off")
         return actions
 
     def on_link(self, key: frozenset, up: bool, now: float) -> list:
-        """A link changed state: relearn L2 switches (fast failover), reroute at once on port status
-        if configured, heal partitions when a link comes up."""
-        st = self.state
+        """A link changed state: each manager's reaction (:attr:`~sdn_app.managers.base.Manager.LINK_ORDER`:
+        fast failover's relearning, the reroute on port status, the repair of duplicated paths),
+        then, when it came up, partitions healed and paths protected again."""
         actions: list = []
-        if not up and st.config.fast_failover:
-            actions += self.routing.relearn_behind_l2(key, now)
-        if not up and st.config.reroute_on_port_status:
-            for name, active in list(st.paths.items()):
-                if key in path_links(active.path) and name not in self.partitioned:
-                    actions += self.reroute(name, "port_status", now, t_loss=None)
-        if not up and st.config.duplicate_paths:
-            actions += self.repair_pairs(key, now)
+        for manager in self._by_link_order:
+            actions += manager.on_link(self, key, up, now)
         if up:
             actions += self.heal(now)
             actions += self.reprotect(key, now)
-        return actions
-
-    def repair_pairs(self, key: frozenset, now: float) -> list:
-        """A link of a duplicated path went down: the packets still arrive over the other leg (no
-        loss, so no DR); give the path two legs again, as the network now allows (make before
-        break, the DR hold untouched). A path with one leg only lost its packets: that is the DR's
-        (or fast failover's) to repair, as without duplication. A path already moved by
-        ``reroute_on_port_status`` is not touched twice."""
-        st = self.state
-        actions: list = []
-        for name, active in sorted(st.paths.items()):
-            if active.second_leg is None or name in self.partitioned or active.installed_at == now:
-                continue
-            if key not in path_links(active.path) + path_links(active.second_leg):
-                continue
-            path = st.path_to(active.sdc, name)
-            if path is None:
-                continue  # nothing left to pair: the DR machinery reports the loss
-            actions += self.routing.install(name, active.sdc, path, now)
-            st.counters["pairs_repaired"] += 1
-            st.event(now, "pair_repaired", wt=name, link=sorted(key), path=path, second_leg=st.paths[name].second_leg)
         return actions
 
     def reprotect(self, key: frozenset, now: float) -> list:

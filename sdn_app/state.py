@@ -14,6 +14,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 from sdn_app.dr import DrMonitor
+from sdn_app.path_policies import PATH_POLICIES
 from sdn_app.paths import build_graph, choose_path, link_key
 from sdn_app.tables import Tables, TurbineAddress
 from sdvisc import wire
@@ -37,13 +38,15 @@ class ActivePath:
     unacknowledged: set = field(default_factory=set)  # switches whose barrier reply is still awaited
     ready_at: float | None = None  # when the last switch of the path acknowledged its flows
     protected_without: frozenset = frozenset()  # links down when its FF detours (or second leg) were computed
-    second_leg: list[str] | None = None  # with duplicate_paths: the leg that carries the copies (A … B)
+    second_leg: list[str] | None = None  # with the duplication manager: the leg that carries the copies (A … B)
 
 
 class SdnState:
     """The shared state (see the module docstring)."""
 
     def __init__(self, config: AppConfig) -> None:
+        if config.path_policy not in PATH_POLICIES:
+            raise ValueError(f"sdn.path_policy: unknown {config.path_policy!r}; known: {sorted(PATH_POLICIES)}")
         self.config = config
         self.graph = build_graph(config.topology)
         self.dpids = {n: s.dpid for n, s in config.topology.switches.items() if s.openflow}
@@ -111,8 +114,12 @@ class SdnState:
         return where != (self.dpids[info.switch], info.port)
 
     # ------------------------------------------------------------------ the network as it stands
-    def path_to(self, src: str, dst: str, avoid=frozenset()) -> list[str] | None:
-        return choose_path(self.graph, src, dst, down=self.down_links, avoid=avoid)
+    def path_to(self, src: str, dst: str, avoid=frozenset(), nodes=None) -> list[str] | None:
+        """The one way to a path: the scenario's path policy (``sdn.path_policy``,
+        :mod:`sdn_app.path_policies`) from ``src`` to ``dst`` around the links known down and those
+        in ``avoid`` (through ``nodes`` only, if given); None if there is none."""
+        return choose_path(self.graph, src, dst, down=self.down_links, avoid=avoid, nodes=nodes,
+                           policy=self.config.path_policy)
 
     def refresh_link_ok(self, wt: str) -> None:
         """T3's second digit: a path exists between the active SDC and the turbine."""

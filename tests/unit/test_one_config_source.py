@@ -26,6 +26,7 @@ from sdvisc.config import (
     BATTERY_SOC_LIMITS,
     AppConfig,
     ImpairNodeConfig,
+    ManagerChoice,
     OwfccConfig,
     PlantConfig,
     SdcConfig,
@@ -39,7 +40,8 @@ from topologies.base import describe
 from topologies.options import options_of
 
 PROCESS_CONFIGS = (AppConfig, SdcConfig, PlantConfig, OwfccConfig, ImpairNodeConfig)
-DATA_MODELS = (TopologyInfo, TurbineEndpoint)  # the built network as the processes see it, not options
+DATA_MODELS = (TopologyInfo, TurbineEndpoint,  # the built network as the processes see it, not options
+               ManagerChoice)  # an entry of sdn.managers: the list is the option
 
 RUN_DERIVED = {  # (process config, option; "*": every config): why no scenario key sets it
     ("*", "time_scale"): "the run's clock: the scenario's time_scale as the runner resolves it (auto: measured "
@@ -128,6 +130,9 @@ VALUES = {  # key path -> (value set in the file, value the process config must 
     ("plant", "batteries", "turbines"): (["wt1_2"], ["wt1_2"]),
     ("plant", "batteries", "soc_init"): (0.7, 0.7),
     ("sdn", "visc_disabled"): (["wt1_2"], ["wt1_2"]),
+    ("sdn", "managers"): ([{"name": "duplication", "turbines": ["wt1_2"]}],
+                          [ManagerChoice(name="duplication", turbines=["wt1_2"])]),
+    ("sdn", "path_policy"): ("delay", "delay"),
     ("topology", "onshore_units"): (1, 1),
     ("timeline",): ([{"t": 1.0, "do": "scr", "value": 2.5}], [2.5]),
 }

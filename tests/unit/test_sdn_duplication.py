@@ -181,4 +181,4 @@ def test_duplicated_flows_serialise_with_two_outputs():
 
 def test_second_leg_is_none_with_one_openflow_switch():
     ctl = controller("farm", clusters=2, turbines=2, layout="compact")
-    assert second_leg(ctl.graph, ctl.dpids, ["sdc1", "sub1", "owfcc"]) is None
+    assert second_leg(ctl.state.path_to, ctl.dpids, ["sdc1", "sub1", "owfcc"]) is None
