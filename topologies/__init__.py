@@ -6,10 +6,12 @@ Example: ``mn --custom topologies/__init__.py --topo farm,clusters=2,turbines=3 
 
 from topologies.farm import FarmTopo
 from topologies.paper import PaperTopo
+from topologies.star import StarTopo
 
-topos = {
+topos = {  # the only list of topology names (a scenario's topology.name is checked against it)
     "paper": PaperTopo,
     "farm": FarmTopo,
+    "star": StarTopo,
 }
 
-__all__ = ["FarmTopo", "PaperTopo", "topos"]
+__all__ = ["FarmTopo", "PaperTopo", "StarTopo", "topos"]
