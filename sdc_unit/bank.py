@@ -1,10 +1,12 @@
 """A fixed-capacity bank of per-turbine controllers addressed by slot, as the service needs it.
 
-Wraps :class:`sdc_unit.discrete.DiscreteVisc` (the Tustin/trapezoid/Euler SDViSC) so that the
+Wraps the controllers of one law of :data:`sdc_unit.laws.LAWS` (``law``; for the ViSC
+:class:`sdc_unit.discrete.DiscreteVisc`, the Tustin/trapezoid/Euler SDViSC; for a law without a
+hand-derived discretisation :class:`sdc_unit.law_trapezoid.TrapezoidControllers`) so that the
 service can start, stop, re-parameterise and step any subset of slots. A started slot is
 initialised from its first measurement (bumpless start from the turbine's operating point).
 
-``method="hold"`` is a network-only law for studies where the grid does not matter: it answers
+The law "hold" (also ``method="hold"``, its former spelling) is a network-only law for studies where the grid does not matter: it answers
 every measurement with the converter voltage of the operating point it saw first
 (``v + (R_f + jX_f)·i``), so packets flow with realistic sizes and timing at negligible CPU cost.
 """
@@ -17,8 +19,7 @@ import numpy as np
 
 from sdc_unit.answer import FLAG_BACKUP, SENT, ctrl_bytes, header_time
 from sdc_unit.blocks import METHODS as VISC_METHODS
-from sdc_unit.discrete import DiscreteVisc
-from sdc_unit.params import ViscParams
+from sdc_unit.laws import get_law
 from sdvisc import wire
 from sdvisc.vocabulary import CTRL_OUTPUTS, FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS, params_from_mask
 
@@ -31,9 +32,12 @@ class ControllerBank:
     """``capacity`` controller slots stepped in one vectorised call."""
 
     def __init__(self, capacity: int, step_s: float, method: str = "tustin", dtype: str = "float64",
-                 r_f: float = FILTER_R_F_PU, x_f: float = FILTER_X_F_PU) -> None:
-        if method not in METHODS:
-            raise ValueError(f"SDC method must be one of {METHODS}, got {method!r}")
+                 r_f: float = FILTER_R_F_PU, x_f: float = FILTER_X_F_PU, law: str = "visc") -> None:
+        if method == "hold":
+            law = "hold"
+        self.law = get_law(law)
+        if self.law.bank is not None and method not in self.law.methods:
+            raise ValueError(f"SDC law {law!r}: method must be one of {self.law.methods}, got {method!r}")
         self.capacity = capacity
         self.method = method
         self.started = np.zeros(capacity, dtype=bool)
@@ -41,10 +45,7 @@ class ControllerBank:
         self.pending_params: dict[int, dict] = {}
         self.z_f = complex(r_f, x_f)
         self.hold_v = np.zeros(capacity, dtype=complex)
-        self.visc = None
-        if method in VISC_METHODS:
-            self.visc = DiscreteVisc(capacity, ViscParams(), ts=step_s, method=method,
-                                     dtype=np.float32 if dtype == "float32" else np.float64)
+        self.visc = None if self.law.bank is None else self.law.bank(capacity, step_s, method, dtype)
         self.compiled_answers = self.visc is not None and self.visc.answers_datagrams
         """True where :meth:`answer_datagrams` is available (the compiled Tustin engine)."""
         self._ctrl_size = {True: ctrl_bytes(True), False: ctrl_bytes(False)}
@@ -71,7 +72,7 @@ class ControllerBank:
     def start(self, slot: int, params: dict) -> None:
         self.started[slot] = True
         self.initialised[slot] = False
-        self.pending_params[slot] = params_from_mask(params)
+        self.pending_params[slot] = self._own(params_from_mask(params))
 
     def stop(self, slot: int) -> None:
         self.started[slot] = False
@@ -80,11 +81,17 @@ class ControllerBank:
             self.visc.deactivate([slot])
 
     def set_params(self, slot: int, params: dict) -> None:
-        changes = params_from_mask(params)
+        changes = self._own(params_from_mask(params))
         if self.visc is not None and changes and self.initialised[slot]:
             self.visc.set_params(slot, **changes)
         elif changes:
             self.pending_params.setdefault(slot, {}).update(changes)
+
+    def _own(self, params: dict) -> dict:
+        """The parameters of a REQUEST that are the law's run-time ones (a word the law does not have,
+        such as h for the droop law, is not its to set and is left out)."""
+        own = self.law.runtime_params
+        return {k: v for k, v in params.items() if k in own}
 
     def runtime_params(self, slot: int) -> dict[str, float]:
         """The run-time parameters (h, d, m_q, v_ref, q_ref, supp) ``slot``'s controller steps with now

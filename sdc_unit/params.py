@@ -14,7 +14,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, fields, replace
 
-from sdvisc.vocabulary import F_NOMINAL_HZ, FILTER_R_F_PU, FILTER_X_F_PU
+from sdc_unit.law_spec import param, runtime_names
+from sdvisc.vocabulary import F_NOMINAL_HZ, FILTER_R_F_PU, FILTER_X_F_PU, VISC_PARAMS
 
 
 @dataclass(frozen=True)
@@ -81,14 +82,14 @@ class ViscParams:
         f_base: base (nominal) frequency [Hz], default 50.0 [PARAMETERS.md].
     """
 
-    h: float = 3.0
-    d: float = 90.0
+    h: float = param(3.0, "s", "paper: 3 s and 5 s cases, 4 s in the 100 MW case", runtime=True)
+    d: float = param(90.0, "p.u.", "assumed: swing-mode damping ratio ~0.7 (docstring)", runtime=True)
     p_ref: float = 0.0
     omega_s_measured: bool = False
-    v_ref: float = 1.0
-    q_ref: float = 0.0
+    v_ref: float = param(1.0, "p.u.", "paper", runtime=True)
+    q_ref: float = param(0.0, "p.u.", "paper", runtime=True)
     e_ref: float = 1.0
-    m_q: float = 0.02
+    m_q: float = param(0.02, "p.u.", "paper, comparison case", runtime=True)
     k_pv: float = 0.5
     k_iv: float = 20.0
     r_v: float = 0.0
@@ -97,7 +98,7 @@ class ViscParams:
     freeze_vf_when_limited: bool = False
     i_max: float = 1.5
     avr_antiwindup: bool = True
-    supp: bool = False
+    supp: bool = param(False, "", "assumed; the paper uses it in the weak-grid cases", runtime=True)
     k_f1: float = 20.0
     t_v1: float = 1.0
     k_f2: float = 0.2
@@ -126,5 +127,6 @@ class ViscParams:
         return tuple(f.name for f in fields(cls))
 
 
-#: Parameters that :meth:`sdc_unit.discrete.DiscreteVisc.set_params` may change at run time.
-RUNTIME_PARAMS = ("h", "d", "m_q", "v_ref", "q_ref", "supp")
+RUNTIME_PARAMS: tuple[str, ...] = tuple(sorted(runtime_names(ViscParams), key=list(VISC_PARAMS).index))
+"""Parameters that :meth:`sdc_unit.discrete.DiscreteVisc.set_params` may change at run time (those
+declared ``runtime=True`` above), in the wire's order: h, d, m_q, v_ref, q_ref, supp."""
