@@ -194,13 +194,13 @@ class PlantCore:
         cmd = msg["cmd"]
         t_sim = self.k * self.step_s
         if cmd == wire.Command.STREAM_START:
+            self.model.set_mode(ep.index, "remote")  # first: a model that refuses (no converter of its own) raises
             if not ep.streaming:
                 ep.awaiting_first_ctrl = True
                 ep.stream_started_wall = now
             ep.streaming = True
             self.streaming = [e for e in self.endpoints if e.streaming]
             ep.sdc_addr = (wire.i32_to_ip(msg["sdc_ip"]), wire.PORT_SDC)
-            self.model.set_mode(ep.index, "remote")
             self.live.event({"t": t_sim, "type": "stream_start", "wt": ep.name, "sdc": ep.sdc_addr[0]})
         elif cmd == wire.Command.STREAM_STOP:
             ep.streaming = False
