@@ -4,7 +4,8 @@ Before t = 0 and before the SDN application starts, for each candidate k = 1, 2,
 first, stopping at the first that passes), the runner plays a pilot of the run itself at that k:
 
 * **the plant**: this scenario's plant model, with its ViSC turbines in remote mode, stepped
-  paced at k·Ts in the runner's process (the same model code the plant service runs), and each
+  paced at k·Ts in the runner's process at the plant service's scheduling (SCHED_FIFO where
+  allowed: :mod:`scenarios.calibration_probe`; the same model code the plant service runs), and each
   step one real MEAS per ViSC turbine (the model's own measurements, GTNET header, packed by the
   service's own :class:`plant.endpoint_tx.MeasPacker`) sent from that turbine's namespace; the step's compute (model, encoding, sending, reading the CTRLs) is timed and
   its busy fraction is cost / (k·Ts);
@@ -24,7 +25,9 @@ work included, and keeps a quarter of a sample for the load it leaves out (the r
 then checks itself: its summary's ``advice`` when over 1 % of the answers came a sample late, and the
 report runs such a run again at twice its k). A trial decided
 by its last per cent of samples (:func:`borderline`) is extended once to twice its steps. Not measured: the SDN app's
-and the OWFCC's CPU, the plant service's AKs, status files and recorder.
+and the OWFCC's CPU, the plant service's AKs, status files and recorder. How close each candidate
+came (within one sample, late steps, share of the limit) is in ``candidates`` and each trial's
+``closeness`` (:mod:`scenarios.calibration_report`).
 """
 
 from __future__ import annotations
@@ -33,22 +36,20 @@ import os
 import subprocess
 import sys
 import time
-from dataclasses import dataclass, field
 from functools import partial
 
 import networkx as nx
 import numpy as np
 
-from plant.endpoint_tx import MeasPacker
 from plant.service import build_model
 from scenarios import configs
+from scenarios.calibration_probe import PilotSetup, plant_scheduling, probe
 from scenarios.calibration_report import candidates, closeness
 from scenarios.remote_process import RemoteProcess, popen_in
 from sdvisc import rxstamp, wire
 from sdvisc.config import write_config
 from sdvisc.netns import cpu_seconds_of, udp_socket_in
 from sdvisc.stats import delay_summary
-from sdvisc.vocabulary import FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS
 
 CANDIDATES = (1, 2, 4, 8, 16, 32, 64)
 BUSY_LIMIT = 0.5
@@ -159,23 +160,6 @@ def choose(trials: list[dict]) -> tuple[float, bool]:
     return float(max(t["k"] for t in trials)), False
 
 
-@dataclass
-class PilotSetup:
-    """What one calibration talks to: the ViSC turbines' sockets, the SDC pilot, the plant model."""
-
-    sdc_ip: str
-    turbines: list[str]
-    wids: dict[str, int]
-    socks: dict = field(default_factory=dict)
-    model: object = None
-    indices: list[int] = field(default_factory=list)
-    seq: int = 0  # MEAS counter, continued over the candidates (the SDC checks seq against t_sim)
-    sent: dict = field(default_factory=dict)  # (wid, seq) -> (wall ns the MEAS was sent, wall ns its step began)
-    step_start_ns: int = 0  # the current step's start (wall ns, the kernel stamps' clock)
-    pilot_cpu_s: object = None  # () -> the pilot's CPU seconds so far (on its server, across servers)
-    packer: MeasPacker = field(default_factory=lambda: MeasPacker(header=True))  # the plant service's encoder
-
-
 def pilot_flows(desc: dict, sdc_host: str, turbines: list[str]) -> dict[str, list[str]]:
     """Per OpenFlow switch, ``ovs-ofctl add-flows`` lines that carry MEAS from each turbine to
     ``sdc_host`` and CTRL back along shortest paths (hop count; a tree rooted at the SDC's switch)."""
@@ -229,7 +213,8 @@ class Calibration:
             raise RuntimeError(f"ovs-ofctl {' '.join(args)}: {res.stderr.strip()}")
         return res.stdout
 
-    def _model(self, setup: PilotSetup) -> None:
+    def _model(self, setup: PilotSetup) -> bool:
+        """The plant model in ``setup``; returns whether the plant service steps at real-time priority."""
         run, sc = self.run, self.run.scenario
         pids = {n: None for n, h in run.desc["hosts"].items() if h["role"] == "turbine"}
         cfg = configs.plant_config(sc, run.desc, str(run.out), pids, {"time_scale": 1.0})
@@ -238,6 +223,7 @@ class Calibration:
         setup.indices = [indices[names.index(wt)] for wt in self.turbines]
         for i in setup.indices:
             setup.model.set_mode(i, "remote")
+        return cfg.realtime_priority
 
     def _start_pilot(self, setup: PilotSetup):
         run = self.run
@@ -266,7 +252,8 @@ class Calibration:
         run = self.run
         hosts = run.desc["hosts"]
         setup = PilotSetup(hosts[self.sdc_host]["ip"], self.turbines,
-                           {wt: wire.turbine_id(hosts[wt]["cluster"], hosts[wt]["number"]) for wt in self.turbines})
+                           {wt: wire.turbine_id(hosts[wt]["cluster"], hosts[wt]["number"]) for wt in self.turbines},
+                           step_s=self.step_s)
         started = time.time()
         pilot = None
         trials: list[dict] = []
@@ -279,9 +266,10 @@ class Calibration:
                     sock = udp_socket_in(run.net.get(wt).pid, hosts[wt]["ip"], hosts[wt].get("udp_port", wire.PORT_TURBINE))
                     rxstamp.enable(sock)
                     setup.socks[wt] = sock
-            self._model(setup)
+            realtime = self._model(setup)
             start = getattr(run, "calibrate_from", None) or first_guess(len(self.turbines), self.step_s)
-            trials = search(lambda k: self._trial(setup, k), start)
+            with plant_scheduling(realtime) as setup.scheduling:  # as the plant service steps
+                trials = search(lambda k: self._trial(setup, k), start)
         finally:
             for sock in setup.socks.values():
                 sock.close()
@@ -300,33 +288,10 @@ class Calibration:
         return {"time_scale": k, "met": met, "started_from": start if self.turbines else None,
                 "turbines": self.turbines, "sdc": self.sdc_host,
                 "limits": {"busy": BUSY_LIMIT, "answer_p99_sim_ms": ROUND_TRIP_LIMIT_STEPS * self.step_s * 1e3},
-                "candidates": candidates(trials), "trials": trials, "wall_s": round(time.time() - started, 2),
+                "candidates": candidates(trials), "plant_scheduling": setup.scheduling, "trials": trials, "wall_s": round(time.time() - started, 2),
                 "plant_model": run.scenario.plant.model}
 
     # ------------------------------------------------------------------ one candidate
-    def _step(self, setup: PilotSetup) -> None:
-        """One plant step with the remote turbines held at their operating point, then one MEAS per
-        ViSC turbine from its namespace, as the plant service sends it."""
-        model = setup.model
-        model.step()
-        meas = model.measurements()
-        idx = np.asarray(setup.indices)
-        v = meas["v_d"][idx] + 1j * meas["v_q"][idx]
-        i = meas["i_d"][idx] + 1j * meas["i_q"][idx]
-        v_conv = v + complex(FILTER_R_F_PU, FILTER_X_F_PU) * i
-        model.apply_remote(idx, v_conv.real, v_conv.imag, i.real, i.imag)
-        setup.seq += 1
-        t_sim = setup.seq * self.step_s
-        dst = (setup.sdc_ip, wire.PORT_SDC)
-        columns = [meas[key] for key in MEAS_FIELDS]
-        for j, wt in enumerate(setup.turbines):
-            now_ns = time.time_ns()
-            sec, nsec = divmod(now_ns, 1_000_000_000)
-            data = setup.packer.pack(setup.wids[wt], setup.seq, t_sim, [float(c[setup.indices[j]]) for c in columns],
-                                     sec, nsec)
-            setup.sent[(setup.wids[wt], setup.seq)] = (now_ns, setup.step_start_ns)
-            setup.socks[wt].sendto(data, dst)
-
     def _trial(self, setup: PilotSetup, k: float) -> dict:
         period = k * self.step_s
         steps = max(MIN_PROBE_STEPS, int(PROBE_WALL_S / period))
@@ -335,11 +300,11 @@ class Calibration:
         answer: dict[str, list[float]] = {wt: [] for wt in setup.turbines}  # CTRL after its step began, wall ms
         setup.sent.clear()
         cpu0, wall0 = setup.pilot_cpu_s(), time.time()
-        plant_s, lateness = self._probe(setup, period, steps, (rtt, back, answer))
+        plant_s, lateness = probe(setup, period, steps, (rtt, back, answer))
         extended = False
         if not shortfalls(k, self.step_s, float(np.mean(plant_s)), 0.0, None) and borderline(
                 answer, answer_budget_s(period)):
-            more_s, more_late = self._probe(setup, period, steps, (rtt, back, answer))
+            more_s, more_late = probe(setup, period, steps, (rtt, back, answer))
             plant_s, lateness = np.concatenate([plant_s, more_s]), np.concatenate([lateness, more_late])
             steps, extended = 2 * steps, True
         sdc_busy = (setup.pilot_cpu_s() - cpu0) / (time.time() - wall0)
@@ -358,44 +323,3 @@ class Calibration:
                 "closeness": closeness(answer, steps, period, answer_budget_s(period), lateness,
                                        None if worst is None else worst * 1e-3),
                 "per_turbine_wall": per_turbine}
-
-    def _probe(self, setup: PilotSetup, period: float, steps: int, into: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """``steps`` paced steps of ``period`` wall seconds; the answers go into ``into`` (round trips,
-        returns, answer times: :meth:`_drain`); returns each step's wall seconds (drain + step + sends)
-        and how late each began (wall s after its schedule)."""
-        plant_s, lateness = np.empty(steps), np.empty(steps)
-        start = time.perf_counter()
-        for n in range(steps):
-            delay = start + n * period - time.perf_counter()
-            if delay > 0:
-                time.sleep(delay)
-            t0 = time.perf_counter()
-            lateness[n] = t0 - (start + n * period)
-            setup.step_start_ns = time.time_ns()
-            self._drain(setup, *into)
-            self._step(setup)
-            plant_s[n] = time.perf_counter() - t0
-        time.sleep(max(0.2, 20 * period))
-        self._drain(setup, *into)
-        return plant_s, lateness
-
-    @staticmethod
-    def _drain(setup: PilotSetup, rtt: dict, back: dict, answer: dict) -> None:
-        for wt, sock in setup.socks.items():
-            while (got := rxstamp.recv(sock)) is not None:
-                data, _addr, t_rx = got
-                try:
-                    msg = wire.decode(data, header=True)
-                except wire.WireError:
-                    continue
-                if msg.type != wire.MsgType.CTRL:
-                    continue
-                sent = setup.sent.pop((msg["wt"], msg["meas_seq"]), None)
-                if sent is None:
-                    continue
-                t_send, t_step = sent
-                rtt[wt].append((t_rx - t_send) * 1e-6)
-                answer[wt].append((t_rx - t_step) * 1e-6)
-                if msg.header is not None:
-                    back[wt].append((t_rx - (msg.header.sec * 1_000_000_000 + msg.header.nsec)) * 1e-6)
-

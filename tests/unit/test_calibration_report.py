@@ -84,3 +84,27 @@ def test_summary_rows_and_the_terminal_line_carry_every_candidate(tmp_path):
     assert "\n" not in line and line.startswith("sdvisc: time scale 16, calibrated in 5.3 s")
     assert "; candidates: k = 8 fell short: p99 104% of the limit" in line
     assert cal["candidates"] == rows
+
+
+def test_the_pilot_steps_at_the_plant_services_scheduling_and_gives_it_back(monkeypatch):
+    import os
+
+    from scenarios.calibration_probe import plant_scheduling
+
+    state = {"policy": os.SCHED_OTHER, "nice": 0}
+    monkeypatch.setattr(os, "sched_getscheduler", lambda pid: state["policy"])
+    monkeypatch.setattr(os, "sched_getparam", lambda pid: os.sched_param(0))
+    monkeypatch.setattr(os, "getpriority", lambda which, who: state["nice"])
+    monkeypatch.setattr(os, "sched_setscheduler", lambda pid, policy, param: state.update(policy=policy))
+    monkeypatch.setattr(os, "setpriority", lambda which, who, value: state.update(nice=value))
+
+    def to_fifo():
+        state.update(policy=os.SCHED_FIFO, nice=-10)
+        return "SCHED_FIFO:10"
+
+    with pytest.raises(RuntimeError), plant_scheduling(True, raise_to=to_fifo) as got:
+        assert got == "SCHED_FIFO:10" and state["policy"] == os.SCHED_FIFO
+        raise RuntimeError("a trial failed")
+    assert state == {"policy": os.SCHED_OTHER, "nice": 0}  # back, also when a trial raised
+    with plant_scheduling(False, raise_to=to_fifo) as got:  # a plant without realtime_priority: untouched
+        assert got == "default" and state["policy"] == os.SCHED_OTHER
