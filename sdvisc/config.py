@@ -111,8 +111,11 @@ class ServiceBase(ProcessBase, RealtimePriority):
 class SdcOptions(_Config):
     """The SDC unit's options a scenario sets (its ``sdc`` section)."""
 
+    law: str = Field("visc", pattern=r"^[a-z][a-z0-9_]*$", description=(
+        "the control law, a name of sdc_unit.laws.LAWS (visc, hold, droop; the scenario schema checks it)"))
     method: Literal["tustin", "trapezoid_cumulative", "euler", "hold"] = Field(
-        "tustin", description="discretisation of the ViSC law (hold: network only, no law)")
+        "tustin", description="discretisation of the law, one of its methods (the ViSC: all three; a law of the "
+                              "generic trapezoid: tustin); hold: the law hold (its former spelling)")
     dtype: Literal["float64", "float32"] = Field("float64", description="the law's floating-point type")
     gather_steps: float = Field(0.5, ge=0, le=0.9, description=(
         "after a wake-up, wait up to this many sampling periods (simulated) for the other served "
