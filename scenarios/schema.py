@@ -36,6 +36,7 @@ from pydantic_core import InitErrorDetails, PydanticCustomError
 from plant.params import BatteryParams
 from scenarios.cluster_spec import ClusterSpec
 from scenarios.external_spec import ExternalSwitchSpec, PeerSpec
+from sdc_unit.laws import LAWS
 from sdn_app.managers import MANAGERS
 from sdn_app.path_policies import PATH_POLICIES
 from sdvisc.config import (
@@ -172,6 +173,17 @@ class SdcSpec(SdcOptions):
     """The ``sdc`` section: :class:`sdvisc.config.SdcOptions` and whether a backup SDC runs."""
 
     backup: bool = Field(True, description="start the backup SDC on sdc2")
+
+    @model_validator(mode="after")
+    def _known_law_and_method(self):
+        """``law`` from the SDC's registry (sdc_unit.laws.LAWS), ``method`` one of that law's."""
+        law = LAWS.get(self.law)
+        if law is None:
+            raise ValueError(f"sdc.law: unknown law {self.law!r}; known: {', '.join(LAWS)}")
+        if law.bank is not None and self.method not in law.methods:
+            raise ValueError(f"sdc.method: {self.method!r} is not a method of the law {self.law!r} "
+                             f"({', '.join(law.methods)})")
+        return self
 
 
 class SdnSpec(SdnOptions):
