@@ -127,7 +127,8 @@ class SdcCore:
         self.header = cfg.header
         self.controller = (cfg.controller_vip, wire.PORT_CONTROLLER)
         self.instances: dict[int, Instance] = {}
-        self.bank = ControllerBank(capacity=cfg.capacity + 1, step_s=cfg.step_s, method=cfg.method, dtype=cfg.dtype)
+        self.bank = ControllerBank(capacity=cfg.capacity + 1, step_s=cfg.step_s, method=cfg.method, dtype=cfg.dtype,
+                                   law=cfg.law)
         self.ctrl_seq = np.zeros(self.bank.capacity, dtype=np.int64)
         """The last CTRL ``seq`` of each slot (advanced by the stepping, :func:`sdc_unit.round.answer`)."""
         self.rx_stats = wire.DecodeStats()
