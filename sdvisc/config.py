@@ -333,8 +333,8 @@ class SdnOptions(_Config):
         "SDN managers (sdn_app.managers.MANAGERS) and the turbines each acts for; an entry replaces what the "
         "booleans above give that manager (every turbine), turbines: [] switches it off (SdnOptions.manager_selection)"))
     path_policy: str = Field("hops", description=(
-        "how paths are chosen (sdn_app.path_policies.PATH_POLICIES): hops (fewest hops) or delay (least summed "
-        "link delay_s, then fewest hops)"))
+        "how paths are chosen: a name in sdn_app.path_policies.PATH_POLICIES (hops, the default: fewest hops; "
+        "each policy's module says what it prefers)"))
 
     @field_validator("managers")
     @classmethod
