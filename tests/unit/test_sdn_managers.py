@@ -166,3 +166,22 @@ def test_every_route_is_the_policys(monkeypatch):
     protected = [x for x, nxt in zip(active.path[1:], active.path[2:]) if x in ctl.dpids and nxt in ctl.dpids]
     assert protected and all((x, "wt1_2") in asked for x in protected)  # each one's detour
     assert active.groups
+
+
+def test_a_new_manager_is_its_class_and_a_registry_line(monkeypatch):
+    """Nothing else lists the managers: one registered here is enabled by ``sdn.managers`` and its
+    flows hook runs for the turbines it selects, after the built-in ones."""
+    from sdn_app.managers.base import Manager
+
+    class CountToController(Manager):  # e.g. a copy of every upstream packet to the controller
+        def flows(self, routing, active, flows):
+            return flows + [fl.FlowAdd(1, 5, {"ipv4_src": routing.state.endpoint(active.wt)[0]},
+                                       (fl.Output(fl.TO_CONTROLLER),), active.cookie)]
+
+    monkeypatch.setitem(MANAGERS, "count_to_controller", CountToController)
+    ctl = Controller(make_config(backup_sdc=None, managers=[{"name": "count_to_controller", "turbines": ["wt1_2"]}]),
+                     now=0.0)
+    mine = lambda actions: [a for a in actions if isinstance(a, fl.FlowAdd) and a.priority == 5]  # noqa: E731
+    assert mine(visc_on(ctl, "wt1_1", now=1.0)) == []
+    (added,) = mine(visc_on(ctl, "wt1_2", now=1.1))
+    assert added.match == {"ipv4_src": ctl.config.topology.hosts["wt1_2"].ip}
