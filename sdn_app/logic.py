@@ -40,7 +40,8 @@ class Controller:
         self.state = SdnState(config)
         self.messenger = Messenger(self.state)
         turbines = {n for n, h in config.topology.hosts.items() if h.role == "turbine"}
-        self.managers = enabled_managers(config.manager_selection(), turbines)
+        self.manager_selection = config.manager_selection()
+        self.managers = enabled_managers(self.manager_selection, turbines)
         self.routing = Routing(self.state, self.messenger, is_dead=lambda sdc: sdc in self.guard.dead,
                                managers=self.managers)
         self.guard = SdcGuard(self.state, self.routing, self.messenger)
@@ -316,6 +317,8 @@ class Controller:
             "dead_sdcs": sorted(self.sdc_dead),
             "suspected_sdcs": sorted(self.guard.suspects),
             "partitioned": sorted(self.partitioned),
+            "managers": {n: None if t is None else sorted(t) for n, t in self.manager_selection.items()},
+            "path_policy": self.config.path_policy,
             "connected": sorted(self.connected),
             "acks": {n: {"ak": t.ak, "ctrl_rx": t.ctrl_rx, "dr_confirmed": t.confirmed}
                      for n, t in st.dr.tracks.items()},

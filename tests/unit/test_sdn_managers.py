@@ -185,3 +185,12 @@ def test_a_new_manager_is_its_class_and_a_registry_line(monkeypatch):
     assert mine(visc_on(ctl, "wt1_1", now=1.0)) == []
     (added,) = mine(visc_on(ctl, "wt1_2", now=1.1))
     assert added.match == {"ipv4_src": ctl.config.topology.hosts["wt1_2"].ip}
+
+
+def test_the_published_state_names_the_managers_and_the_policy():
+    ctl = Controller(make_config(backup_sdc=None, duplicate_paths=True, path_policy="delay",
+                                 managers=[{"name": "fast_failover", "turbines": ["wt1_2"]}]), now=0.0)
+    snap = ctl.snapshot()
+    assert snap["managers"] == {"ingress_guard": None, "dynamic_routing": None, "mirror": None, "duplication": None,
+                                "fast_failover": ["wt1_2"]}
+    assert snap["path_policy"] == "delay"
