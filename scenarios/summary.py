@@ -6,7 +6,11 @@
 ``type`` and details), ``recoveries`` (each ``wt``, ``cause``, ``t_fault``, ``t_detect``,
 ``t_restored``, ``recovery_ms``), ``openflow`` (controller↔switch message counts) and
 ``impairments`` (impaired links: configured values over time, what each element measured;
-:mod:`scenarios.impairments`).
+:mod:`scenarios.impairments`). The per-turbine rows add up the same way whatever the plant was
+(:mod:`scenarios.summary_turbines`: ``meas_rx_sdc``/``ctrl_tx_sdc`` over every SDC, a killed SDC's
+counts from its last snapshot, ``sdc_stats_partial``); with a real card (the run did not start it)
+its side is counted from the capture on its cable (:mod:`scenarios.peer_tap`, ``peer`` says how and to
+what resolution) and what nobody counted is ``null``, never 0.
 """
 
 from __future__ import annotations
