@@ -14,13 +14,16 @@ hang on ``h1``, ``sdc2`` on ``h2``::
              |   c1 ... ck   |
              |  (both hubs)  |
 
-``link_delay_ms``: a one-way delay on every switch-to-switch link (tc netem through Mininet's
-``TCLink``), which the description carries as each link's ``delay_s``.
+``link_delay_ms``: a one-way delay declared on every switch-to-switch link (Mininet's ``delay`` link
+option), which the description carries as each link's ``delay_s`` for the SDN app's delay path
+policy. Declared, not emulated by the testbed's run (its links are plain veths or patch ports):
+``mn --custom topologies/__init__.py --topo star,link_delay_ms=2 --link tc`` emulates it with netem
+where the kernel has it (not on the development machine, ../shared/PLATFORM.md); a run emulates a
+delay with an impairment element (the scenario's ``links: [{a, b, delay_ms}]``).
 """
 
 from __future__ import annotations
 
-from mininet.link import TCLink
 from pydantic import Field
 
 from topologies.base import TestbedTopo
@@ -31,8 +34,8 @@ class StarOptions(ClusteredOptions):
     """Clusters × turbines, and a delay on the switch-to-switch links."""
 
     link_delay_ms: float = Field(0.0, ge=0, le=1000, description=(
-        "one-way delay of every switch-to-switch link, ms (0: none, a plain veth link); e.g. the "
-        "~0.1 ms of 20 km of fibre at 5 µs/km, an assumption of this example"))
+        "one-way delay declared on every switch-to-switch link, ms (0: none; e.g. 0.1 for 20 km of fibre at "
+        "5 µs/km); declared for the path policies, emulated only with a tc link class (see the module)"))
 
 
 class StarTopo(TestbedTopo):
@@ -41,7 +44,7 @@ class StarTopo(TestbedTopo):
     options_model = StarOptions
 
     def build(self, clusters: int, turbines: int, link_delay_ms: float):
-        delayed = {"cls": TCLink, "delay": f"{link_delay_ms:g}ms"} if link_delay_ms else {}
+        delayed = {"delay": f"{link_delay_ms:g}ms"} if link_delay_ms else {}
         h1 = self.add_switch("h1", dpid=1)
         h2 = self.add_switch("h2", dpid=2)
         self.addLink(self.add_service_host("owfcc"), h1)
