@@ -30,7 +30,9 @@ import numpy as np
 from plant.params import PlantParams
 from plant.sim import Plant
 from sdc_unit.discrete import DiscreteVisc
+from sdc_unit.laws import get_law
 from sdc_unit.params import ViscParams
+from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS, REMOTE_REFERENCES
 
 QUANTITIES = ("v_pcc", "q", "delta", "e_mag")
 
@@ -136,6 +138,43 @@ def run_sdc(case: FaultCase = FaultCase(), method: str = "tustin", dtype=np.floa
         plant.step()
         rec = plant.recorded()
         rows.append((rec["v_pcc"], rec["q"][idx], o.delta, o.e_mag))
+        if math.isnan(trip_t) and plant.trips[idx].any():
+            trip_t = (k + 1) * case.plant_step_s
+        if not np.isfinite(rows[-1][0]):
+            break
+    res = _stack(rows, case)
+    res["trips"] = plant.trips[idx].copy()
+    res["trip_t"] = trip_t
+    return res
+
+
+def run_law(case: FaultCase = FaultCase(), law: str = "visc", delay_samples: int = 0,
+            remote_apply: str = "v_ref") -> dict[str, np.ndarray]:
+    """Any law of :data:`sdc_unit.laws.LAWS` as the SDC runs it (its bank: the ViSC's hand-derived
+    Tustin, another law's generic trapezoid) sampled every ``case.step_s``, closing the loop through
+    the plant's remote mode as :func:`run_sdc`; same traces (delta and e_mag from the law's CTRL
+    outputs). With ``case.step_s`` at the plant's step (HD_STEP_S) it is that law's HD reference
+    (:func:`plant.hd_reference.run_law_reference`)."""
+    plant, idx = _plant(case, remote_apply)
+    plant.set_mode(idx, "remote")
+    plant.set_remote_fallback(False)
+    n = len(idx)
+    ctrl = get_law(law).bank(n, case.step_s, "tustin", "float64")
+    slots = np.arange(n)
+    ctrl.initialise(slots, _meas(plant, idx))
+    queue = [tuple(np.array(ctrl.last[k], dtype=float) for k in REMOTE_REFERENCES)] * delay_samples
+    m = case.plant_steps_per_sample
+    rows, trip_t, out = [], math.nan, None
+    for k in range(case.n_steps):
+        _events(plant, k, case)
+        if k % m == 0:
+            meas = _meas(plant, idx)
+            _, out, _ = ctrl.advance_slots(slots, np.array([getattr(meas, f) for f in MEAS_FIELDS], dtype=float))
+            queue.append(tuple(out[CTRL_OUTPUTS.index(r)] for r in REMOTE_REFERENCES))
+            plant.apply_remote(idx, *queue.pop(0))
+        plant.step()
+        rec = plant.recorded()
+        rows.append((rec["v_pcc"], rec["q"][idx], out[CTRL_OUTPUTS.index("delta")], out[CTRL_OUTPUTS.index("e_mag")]))
         if math.isnan(trip_t) and plant.trips[idx].any():
             trip_t = (k + 1) * case.plant_step_s
         if not np.isfinite(rows[-1][0]):

@@ -1,4 +1,5 @@
-"""The HD reference: the hardware-dependent ViSC the paper's SDC is judged against, defined once.
+"""The HD reference: the hardware-dependent ViSC the paper's SDC is judged against, defined once (and
+the HD reference of any law of sdc_unit.laws: :func:`run_law_reference`).
 
 In the paper (Section IV-B) the HD ViSC is "directly implemented in RSCAD": the continuous ViSC law
 runs inside the real-time simulator at the simulator's time step, tens of µs, and its inner current
@@ -35,7 +36,7 @@ from functools import lru_cache
 
 import numpy as np
 
-from plant.cosim import QUANTITIES, FaultCase, run_hd
+from plant.cosim import QUANTITIES, FaultCase, run_hd, run_law
 from plant.params import TurbineParams
 from sdc_unit.params import ViscParams
 
@@ -95,6 +96,24 @@ def run_reference(case: FaultCase) -> dict[str, np.ndarray]:
     """The HD reference's traces (rows every HD_STEP_S) for comparison with a run of ``case``
     (cached: several experiments in one process share it; do not modify the arrays)."""
     return _run_reference_case(reference_case(case))
+
+
+LAW_LABEL = "HD reference of the law (sampled every 50 µs, zero delay)"
+"""How figures and texts name the HD reference of a law of sdc_unit.laws (:func:`run_law_reference`)."""
+
+
+@lru_cache(maxsize=4)
+def _run_law_reference_case(ref_case: FaultCase, law: str) -> dict[str, np.ndarray]:
+    return run_law(ref_case, law)
+
+
+def run_law_reference(case: FaultCase, law: str) -> dict[str, np.ndarray]:
+    """The HD reference of any law of :data:`sdc_unit.laws.LAWS` for a run of ``case``: the law, as the
+    SDC runs it, sampled every HD_STEP_S with the plant at HD_STEP_S and no transport delay
+    (:func:`plant.cosim.run_law` on :func:`reference_case`). A law needs no form inside the plant to
+    have one: for the ViSC it agrees with the plant-integrated hd_visc reference to 0.05 % of each
+    trace's range (tests/unit/test_law_hd_reference.py). Cached; do not modify the arrays."""
+    return _run_law_reference_case(reference_case(case), law)
 
 
 def sample_instants(case: FaultCase) -> np.ndarray:
