@@ -8,10 +8,11 @@ takes ``now`` (seconds) and returns a list of :mod:`sdn_app.flows` actions. The 
 (paper Section III, plus the testbed's extensions):
 
 * :mod:`sdn_app.requests` — ``ViSC_WT_i``, ``visc_off``, parameter changes from the OWFCC;
-* :mod:`sdn_app.routing` — paths, flows (make before break), mirroring to the backup SDC, ingress
-  guard, fast-failover protection;
+* :mod:`sdn_app.routing` — paths and their flows (make before break), each path's flows shaped by
+  the managers enabled for its turbine (:mod:`sdn_app.managers`: ingress guard, 1+1 duplication,
+  mirroring to the backup SDC, fast-failover protection; routes by :mod:`sdn_app.path_policies`);
 * :mod:`sdn_app.recovery` — ``DR_i = ViSC_WT_i ∧ ¬AK_i`` after the hold (:mod:`sdn_app.dr`):
-  reroute; partitions reported once and healed;
+  the managers' ``on_dr`` (reroute) and ``on_link`` hooks; partitions reported once and healed;
 * :mod:`sdn_app.sdc_guard` — SDC liveness (a detector, :mod:`sdn_app.liveness`) and failover;
 * here: dispatch of packet-ins and of the intake socket's datagrams (strict decoding, access
   control, every drop counted by reason),

@@ -3,8 +3,9 @@ stands (links down, ports), T1–T3, the installed paths, the AK/DR monitor, cou
 
 Pure: nothing here touches a socket or a clock; every call that records something takes ``now``.
 The concerns that act on this state each have their own module (FAUCET's valve managers are the
-model): :mod:`sdn_app.messages` (packets the app sends), :mod:`sdn_app.routing` (paths, flows,
-protection), :mod:`sdn_app.recovery` (DR, partitions), :mod:`sdn_app.sdc_guard` (SDC liveness
+model): :mod:`sdn_app.messages` (packets the app sends), :mod:`sdn_app.routing` (paths, flows),
+:mod:`sdn_app.managers` (what is done to each path's flows and on link changes and DRs, per turbine),
+:mod:`sdn_app.recovery` (DR, partitions), :mod:`sdn_app.sdc_guard` (SDC liveness
 and failover), :mod:`sdn_app.requests` (the OWFCC's requests); :mod:`sdn_app.logic` wires them.
 """
 
