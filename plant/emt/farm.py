@@ -18,6 +18,7 @@ farm's P and Q constant).
 
 from __future__ import annotations
 
+import copy
 import time
 from dataclasses import dataclass
 
@@ -51,10 +52,14 @@ class FarmCircuit:
     sc_v_ref: float = 1.0
 
 
-def phasor_farm_plant(n_visc: int, m_q, with_sc: bool = False, **grid):
+def phasor_farm_plant(n_visc: int, m_q=None, with_sc: bool = False, visc_params: ViscParams | None = None,
+                      **grid):
     """The phasor plant of F8's set-up: ``n_visc`` SDViSC turbines (cluster 3) at P = 0 not yet active,
-    droops ``m_q``; ``with_sc``: the SC in service as well (the benchmark's arrangement)."""
-    vp = ViscParams(m_q=np.asarray(m_q, dtype=float)[:n_visc]) if n_visc else ViscParams()
+    with ``visc_params`` (default ViscParams()) and droops ``m_q`` (one per unit; None: the params');
+    ``with_sc``: the SC in service as well (F7's SC case, the benchmark's arrangement)."""
+    vp = visc_params or ViscParams()
+    if m_q is not None and n_visc:
+        vp = vp.with_changes(m_q=np.asarray(m_q, dtype=float)[:n_visc])
     if not with_sc:
         return plant.cases.visc_plant(n_visc, vp, activate=False, **grid)
     p = plant.cases.sc_plant(**grid)
@@ -65,12 +70,21 @@ def phasor_farm_plant(n_visc: int, m_q, with_sc: bool = False, **grid):
     return p
 
 
-def build_case(n_visc: int, m_q, with_sc: bool = False, r_fault: float = arrangement.R_FAULT,
+def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = arrangement.R_FAULT,
+               scr_after: float | None = None, visc_params: ViscParams | None = None,
                **grid) -> tuple[FarmCircuit, object]:
     """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from); ``r_fault``:
-    the SLG fault's resistance when closed (p.u., network base)."""
-    p = phasor_farm_plant(n_visc, m_q, with_sc, **grid)
+    the SLG fault's resistance when closed (p.u., network base); ``scr_after``: the grid's Thevenin
+    impedance is that of this SCR with a parallel branch (the same X/R) that makes it the phasor plant's
+    SCR until its breaker opens (:meth:`EmtFarm.scr_step`)."""
+    p = phasor_farm_plant(n_visc, m_q, with_sc, visc_params, **grid)
     nw, pp = p.net, p.params
+    z0 = nw.z_grid()
+    if scr_after is None:
+        zg, z_par = z0, None
+    else:
+        zg = z0 * nw.scr / scr_after
+        z_par = z0 * zg / (zg - z0)
     g, t = pp.grid, pp.turbine
     _, _, aux = p._eval_cached()
     V = p._full_v(aux)
@@ -94,14 +108,20 @@ def build_case(n_visc: int, m_q, with_sc: bool = False, r_fault: float = arrange
     def netlist_of(i_farm: complex, e_conv: list | None, e_sc: complex) -> netlist.Netlist:
         """``e_conv`` None: the converters as current sources (the load flow's unknown voltages)."""
         n = netlist.Netlist()
-        zg = nw.z_grid()
         n.add("V", "grid", "grid_src", netlist.GND, complex(g.e_grid))
         n.add("R", "grid_r", "grid_src", "grid_mid", zg.real)
         n.add("L", "grid_l", "grid_mid", "pcc", (zg.imag, zg.imag))
         n.add("L", "zero_seq_ground", "pcc", netlist.GND, (arrangement.OPEN_SEQUENCE_X, nw.z_ontr().imag))
         n.add("R", "damping", "pcc", netlist.GND, arrangement.R_DAMP)
         n.add("S", "fault", "pcc", netlist.GND, (arrangement.R_OPEN, [max(r_fault, arrangement.R_FAULT),
-                                                                      arrangement.R_OPEN, arrangement.R_OPEN]))
+                                                                      arrangement.R_OPEN, arrangement.R_OPEN], False))
+        if z_par is not None:  # the SCR step: a parallel grid branch, its breaker's poles open at 1 s
+            n.add("R", "grid_par_r", "grid_src", "grid_par_mid", z_par.real)
+            n.add("L", "grid_par_l", "grid_par_mid", "grid_par_end", (z_par.imag, z_par.imag))
+            for ph in range(3):
+                closed = [arrangement.R_OPEN] * 3
+                closed[ph] = arrangement.R_FAULT
+                n.add("S", f"grid_par_pole{ph}", "grid_par_end", "pcc", (arrangement.R_OPEN, closed, True))
         series = (("otr", "col", "os_hv", z_otr, arrangement.OPEN_SEQUENCE_X),  # YNd: no zero sequence
                   ("export", "os_hv", "on_hv", z_export, z_export.imag),
                   ("ontr", "on_hv", "pcc", nw.z_ontr(), arrangement.OPEN_SEQUENCE_X))
@@ -146,7 +166,8 @@ def build_case(n_visc: int, m_q, with_sc: bool = False, r_fault: float = arrange
     e_conv = [lf[f"t{j}"] + zf * i_unit0[j] for j in range(n_visc)]
     net = netlist_of(i_farm, e_conv, e_sc)
     v0 = netlist.load_flow(net)
-    params = [p.visc_params.with_changes(m_q=float(np.asarray(m_q)[j])) for j in range(n_visc)]
+    params = [p.visc_params if m_q is None else p.visc_params.with_changes(m_q=float(np.asarray(m_q)[j]))
+              for j in range(n_visc)]
     circ = FarmCircuit(net, v0, n_visc, k, zf, i_unit0, params, v0["col"] * np.conj(i_farm),
                        nw.n_farm * t.s_rated_mva / g.s_base_mva, sc, p.sc.v_ref if with_sc else 1.0)
     return circ, p
@@ -160,8 +181,9 @@ class EmtFarm:
     positive-sequence voltage (devices.FarmInjection, its fault ride-through)."""
 
     def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
-                 steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT, **grid):
-        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, **grid)
+                 steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
+                 scr_after: float | None = None, visc_params: ViscParams | None = None, **grid):
+        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params, **grid)
         self.h = TS_S / steps_per_ts
         self.n_sub = steps_per_ts
         pp = self.phasor_plant.params
@@ -170,6 +192,12 @@ class EmtFarm:
         self.sc = (CondenserEmf(pp.condenser, self.circ.sc_state, self.circ.sc_v_ref, self.phasor_plant.net.k_sc)
                    if with_sc else None)
         self._last: list[tuple[complex, complex]] = [(0j, 0j)] * n_visc
+        self._opening = False  # the SCR step's breaker: poles open at their current's zeros from the event
+        wpp = self.phasor_plant.wpp  # the plant controller (plant/wpp.py) where the phasor plant has one, settled
+        self.wpp = copy.deepcopy(wpp) if wpp is not None else None
+        if self.wpp is not None:  # its order (turbine base) scaled to the aggregated farm's turbines
+            self._q_order0, self._q_farm0 = float(self.wpp.q_turbines), self.circ.farm_s.imag
+            self._q_scale = (self.phasor_plant.net.n_farm - n_visc) * pp.turbine.s_rated_mva / pp.grid.s_base_mva
         self._e = [self.circ.v0[f"c{j}"] for j in range(n_visc)]
 
     def activate(self, run=None) -> None:
@@ -179,6 +207,11 @@ class EmtFarm:
             p = self.circ.visc_params[j]
             x0 = law.initial_state(law.Measurements.from_complex(v, i / self.circ.k_unit), p)
             self.units[j] = ViscConverter(p, x0, self.circ.k_unit, v, self._e[j], tp)
+
+    def scr_step(self, run=None) -> None:
+        """An event: the parallel grid branch's breaker opens, each pole at its current's next zero (the grid
+        then has ``scr_after``'s impedance; built with ``scr_after`` only)."""
+        self._opening = True
 
     def run(self, t_end: float, events: list | None = None, fault: tuple[float, float] | None = None) -> dict:
         """As :meth:`plant.emt.model.EmtComparison.run`: ``events`` [(t, callable(run))], ``fault`` (on, off)
@@ -217,6 +250,10 @@ class EmtFarm:
             sc_v, sc_i = built.nodes["sc_t"].attr("v"), built.comps["sc_l"].attr("i_intf")
             sc_ref = built.comps["sc_emf"].attr("V_ref")
         park = frame.park_sample
+        poles = [built.comps.get(f"grid_par_pole{ph}") for ph in range(3)]
+        par_i = built.comps["grid_par_l"].attr("i_intf") if poles[0] is not None else None
+        i_par_last = np.zeros(3)
+        open_poles = [False] * 3
         wall0, cpu0 = time.perf_counter(), time.process_time()
         with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
             sim.start()
@@ -240,6 +277,14 @@ class EmtFarm:
                         u.sample(vk, ik, self.h)
                         self._e[j] = u.converter_voltage(vk, self.h)
                         e_attr[j].set(conv(self._e[j]))
+                if par_i is not None and not all(open_poles):
+                    i_par = np.ravel(par_i.get())
+                    if self._opening:
+                        for ph in range(3):
+                            if not open_poles[ph] and i_par[ph] * i_par_last[ph] <= 0.0:
+                                poles[ph].open()
+                                open_poles[ph] = True
+                    i_par_last = i_par
                 if self.sc is not None:
                     vs = np.ravel(sc_v.get())
                     i_sc[k] = -np.ravel(sc_i.get())
@@ -247,6 +292,10 @@ class EmtFarm:
                 if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
                     lo = k + 1 - spc
                     v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
+                    if self.wpp is not None:
+                        v1_pcc = abs(complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1]))))
+                        q = float(self.wpp.update(tk, v1_pcc))
+                        self.farm.s = complex(self.farm.s.real, self._q_farm0 + (q - self._q_order0) * self._q_scale)
                     farm_ref.set(conv(self.farm.current(v1, tk) / np.sqrt(3.0)))
             sim.stop()
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0

@@ -8,7 +8,9 @@ r ohm, a reactance x is an inductance x/omega0, a susceptance b a capacitance b/
 * ``R`` r, ``L`` (x1, x0) (3x3 inductance, arrangement.sequence_inductance), ``C`` b: between a and b;
 * ``V`` E: a voltage source from ground to a (its phasor set every step by the run);
 * ``I`` I: a current source injecting I into a from ground;
-* ``S`` (r_open, r_closed_per_phase): a switch a to b, open at the start.
+* ``S`` (r_open, r_closed_per_phase, closed): a switch a to b, closed at the start if ``closed`` (a pole
+  of a breaker: closed on one phase only; the load flow takes its positive-sequence admittance as the
+  mean of its phases', so three such poles, one per phase, make a closed three-phase switch).
 """
 
 from __future__ import annotations
@@ -67,7 +69,7 @@ def _admittance(e: Element) -> complex:
     if e.kind == "C":
         return 1j * e.value
     if e.kind == "S":
-        return 1.0 / e.value[0]
+        return float(np.mean(1.0 / np.asarray(e.value[1]))) if e.value[2] else 1.0 / e.value[0]
     raise ValueError(e.kind)
 
 
@@ -132,8 +134,8 @@ def build(net: Netlist, v0: dict[str, complex]) -> Built:
         elif e.kind == "I":  # DPsim's I_ref is a phase RMS: 1 p.u. of current is 1/sqrt(3) (model.py's farm)
             c, params, ends = ph3.CurrentSource(e.name), (conv(complex(e.value) / np.sqrt(3.0)), 50.0), (e.a, GND)
         else:
-            r_open, closed = e.value
-            c, params, ends = ph3.Switch(e.name), (arrangement.diag3(r_open), np.diag(closed), False), (e.a, e.b)
+            r_open, closed, on = e.value
+            c, params, ends = ph3.Switch(e.name), (arrangement.diag3(r_open), np.diag(closed), bool(on)), (e.a, e.b)
         c.set_parameters(*params)
         c.connect([nodes[ends[0]], nodes[ends[1]]])
         comps[e.name] = c

@@ -1,0 +1,168 @@
+"""EMTW: F7 (the SCR below which the farm loses stability after a step at 1 s: no device, the SC, the four
+SDViSCs of cluster 3) and F9 (SCR 7.14 → 1.51 with 3 and 4 SDViSCs) on the EMT backend (plant/emt/farm.py,
+DPsim) beside the phasor plant, with the same stability criterion (report/stability.py) on the PCC's
+positive-sequence voltage (one-cycle mean of the Park phasor).
+
+The SCR step in EMT: the grid's Thevenin branch is the final SCR's, a parallel branch of the same X/R makes
+it 7.14 until its breaker opens at 1 s, each pole at its current's zero. The farm is one aggregated
+grid-following current source with the plant controller (plant/wpp.py, the phasor plant's, settled) setting
+its Q: the turbines' PLLs and current loops, their DC links and the 50 turbines' own network are not in it,
+so a weak-grid loss on the EMT backend is that of a constant-P injection recomputed every Ts from the
+collector's one-cycle mean voltage, with the WPP's Q — not the phasor plant's PLL-driven mechanism
+(report/f7_mechanism.py). The rows say how far the boundaries are apart; the paper's reading of each EMT
+value is in ``measured["printed"]`` for report/printed.py's count per model.
+
+F7's SDViSC row of the paper is the comparison arrangement's one 40 MVA SDViSC at the onshore PCC; the EMT
+farm arrangement has the four 10 MVA SDViSCs of cluster 3 (the phasor plant's F7net variant, NET_CASE),
+compared with the phasor plant's search of the same case."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from plant.emt import frame
+from plant.emt.farm import EmtFarm
+from report import figures
+from report.boundary import Boundary, threshold
+from report.exp_weak import F9_SCR, f9_run, f9_settings
+from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
+from report.stability import V_NORMAL, Stability, of_run, stability
+from report.verdicts import close_to
+from report.weak_cases import (
+    NET_CASE,
+    SCR_RANGE,
+    T_EVENT,
+    VIRTUAL_FRICTION_DEFAULT,
+    f7_search_settings,
+    search_boundary,
+    visc_params,
+)
+
+SCR_YES, SCR_PARTLY = 0.1, 0.3  # |EMT - phasor| boundary, SCR: yes (issue 40's goal), partly
+CASES = {"none": {"n_visc": 0}, "SC": {"n_visc": 0, "with_sc": True},
+         NET_CASE: {"n_visc": 4, "visc_params": visc_params(False)}}
+PAPER = {"none": 2.04, "SC": 1.58}
+
+
+def emt_scr_run(case: dict, scr: float, t_end: float) -> dict:
+    """One EMT run of ``case`` (EmtFarm keys) with the SCR step 7.14 → ``scr`` at 1 s; the SDViSCs active from
+    the start (as the phasor plant's cases)."""
+    m = EmtFarm(scr_after=scr, **case)
+    events = [(T_EVENT, EmtFarm.scr_step)] + ([(0.0, EmtFarm.activate)] if case.get("n_visc") else [])
+    with np.errstate(all="ignore"):
+        r = m.run(t_end, events=events)
+    t = r["t"]
+    v1 = np.abs(frame.positive_sequence(r["v_pcc"], r["spc"]))
+    vt = np.abs(r["v_t"]) if r["v_t"].size else None
+    keep = slice(None, None, 13)  # every Ts
+    return {"t": t[keep], "v_pcc": v1[keep], "v_wt": vt[keep] if vt is not None else None, "cpu_s": r["cpu_s"]}
+
+
+def emt_state(r: dict) -> Stability:
+    return stability(r["t"], r["v_pcc"], T_EVENT, r["v_wt"])
+
+
+def emt_boundary(case: dict, t_end: float, xtol: float) -> tuple[Boundary, dict[float, dict]]:
+    runs: dict[float, dict] = {}
+
+    def ok(scr: float) -> bool:
+        runs[scr] = emt_scr_run(case, scr, t_end)
+        return emt_state(runs[scr]).stable
+
+    b = threshold(ok, *SCR_RANGE, xtol)
+    return b, runs
+
+
+def _fmt(x: float | None) -> str:
+    return "none in the range" if x is None else f"{x:.3f}"
+
+
+def _scr_verdict(emt: float | None, phasor: float | None) -> str:
+    if emt is None or phasor is None:
+        return "yes" if emt is None and phasor is None else "no"
+    d = abs(emt - phasor)
+    return "yes" if d <= SCR_YES else "partly" if d <= SCR_PARTLY else "no"
+
+
+def _weak(ctx: Context) -> dict[str, Finding]:
+    t_end, xtol = f7_search_settings(ctx.quick)
+    found: dict[str, Finding] = {}
+    traces: dict[str, dict] = {}
+    cpu = {}
+    for claim, (name, case) in zip(("EMTW.F7a", "EMTW.F7b", "EMTW.F7c"), CASES.items()):
+        b_e, runs = emt_boundary(case, t_end, xtol)
+        b_p, p_runs = search_boundary(name, t_end, xtol, "stable")
+        cpu[name] = sum(r["cpu_s"] for r in runs.values())
+        e, p = b_e.value, b_p.value
+        traces[name] = {"emt": {x: runs[x] for x in (b_e.bracket or ())}, "phasor": p_runs}
+        states = "; ".join(f"SCR {x:.3f}: {emt_state(r).describe()}" for x, r in sorted(runs.items()))
+        measured = {"emt_boundary_scr": e, "phasor_boundary_scr": p, "emt_evaluations": b_e.evaluations,
+                    "emt_cpu_s": cpu[name]}
+        if name in PAPER:
+            measured["printed"] = {"reading": f"EMT: SCR step at 1 s, {name}: the boundary below which the farm is "
+                                              "not stable (PCC V1, report/stability.py)",
+                                   "value": _fmt(e), "verdict": close_to(e, PAPER[name]) if e is not None else "no"}
+        found[claim] = Finding(
+            f"{name}: SCR boundary {_fmt(p)} phasor, {_fmt(e)} EMT",
+            _scr_verdict(e, p),
+            f"yes = within {SCR_YES} SCR of the phasor plant's, partly = within {SCR_PARTLY}; bisection in "
+            f"[{SCR_RANGE[0]:g}, {SCR_RANGE[1]:g}] to {xtol}, {t_end:g} s runs, both models. EMT runs: {states}. "
+            "The EMT farm's mechanism is its aggregated injection's (module docstring), not the turbines' PLLs"
+            + (f". Paper: {PAPER[name]}" if name in PAPER else ""), measured)
+    f9_t, _ = f9_settings(ctx.quick)
+    for claim, n in (("EMTW.F9a", 3), ("EMTW.F9b", 4)):
+        r = emt_scr_run({"n_visc": n, "visc_params": visc_params(VIRTUAL_FRICTION_DEFAULT)}, F9_SCR, f9_t)
+        s_e, s_p = emt_state(r), of_run(f9_run(n, f9_t, VIRTUAL_FRICTION_DEFAULT), T_EVENT)
+        traces[f"F9 {n}"] = {"emt": {F9_SCR: r}, "phasor": {F9_SCR: f9_run(n, f9_t, VIRTUAL_FRICTION_DEFAULT)}}
+        cpu[f"F9 {n}"] = r["cpu_s"]
+        measured = {"emt": vars(s_e), "phasor": vars(s_p), "emt_cpu_s": r["cpu_s"]}
+        if n == 3:
+            t_away = s_e.t_away
+            measured["printed"] = {"reading": "EMT: when the PCC's V1 leaves the normal band for good with 3 SDViSCs "
+                                              "(the aggregated farm has no WT1_CS1)",
+                                   "value": "stays in the band" if t_away is None else f"{t_away:.2f} s",
+                                   "verdict": close_to(t_away, 3.0) if t_away is not None else "no"}
+        found[claim] = Finding(f"{n} SDViSCs at SCR {F9_SCR}: {s_p.state} phasor, {s_e.state} EMT",
+                               "yes" if s_e.stable == s_p.stable else "no",
+                               f"yes = the same verdict (stable or not, report/stability.py) on both models; phasor: "
+                               f"{s_p.describe()}; EMT: {s_e.describe()} (terminals: the SDViSCs' only). Paper (F9): "
+                               f"{'3 SDViSCs: unstable, ≈ 3 s' if n == 3 else '4 SDViSCs: stable'}", measured)
+    ctx.numbers["emt_weak_cpu_s"] = cpu
+    _figure(ctx, traces)
+    return found
+
+
+def _figure(ctx: Context, traces: dict) -> None:
+    fig, axes = figures.new(len(traces), height_per_row=2.0)
+    for ax, (name, tr) in zip(axes[:, 0], traces.items()):
+        for model, style in (("phasor", "-"), ("emt", "--")):
+            for j, (scr, r) in enumerate(sorted(tr[model].items(), reverse=True)):
+                ax.plot(r["t"], r["v_pcc"], color=f"C{j}", ls=style, lw=0.9,
+                        label=f"{name}, SCR {scr:.3f}, {model.upper() if model == 'emt' else model}")
+        for v in V_NORMAL:
+            ax.axhline(v, color="0.5", ls=":", lw=0.8)
+        ax.set_ylim(0.0, 1.6)
+        ax.set_ylabel("V1 PCC [p.u.]")
+        ax.legend(fontsize=6, loc="lower left", ncol=2)
+    axes[-1, 0].set_xlabel("t [s] (SCR 7.14 → the value shown at 1 s); solid phasor, dashed EMT (DPsim)")
+    figures.save(ctx, fig, "emt_f7_f9", "F7's boundaries and F9's cases on the EMT backend (dashed) over the phasor "
+                 "plant (solid): the runs either side of each model's boundary.", prefix="Cross-check: ")
+
+
+EMTW_CLAIMS = (
+    PaperClaim("EMTW.F7a", "F7's SCR boundary without SC or SDViSC on the EMT backend as on the phasor plant",
+               "SCR boundary 2.04", kind=CONSISTENCY),
+    PaperClaim("EMTW.F7b", "F7's SCR boundary with the SC on the EMT backend as on the phasor plant",
+               "SCR boundary 1.58", kind=CONSISTENCY),
+    PaperClaim("EMTW.F7c", "F7's SCR boundary with SDViSCs (the four of cluster 3) on the EMT backend as on the "
+               "phasor plant", "boundary < 1.58", kind=CONSISTENCY),
+    PaperClaim("EMTW.F9a", "F9's case with 3 SDViSCs (SCR 7.14 → 1.51) on the EMT backend as on the phasor plant",
+               "3 SDViSCs: unstable", kind=CONSISTENCY),
+    PaperClaim("EMTW.F9b", "F9's case with 4 SDViSCs on the EMT backend as on the phasor plant", "4 SDViSCs: stable",
+               kind=CONSISTENCY),
+)
+
+EMTW = Experiment("EMTW", "EMT cross-check of F7 and F9: weak-grid SCR steps (DPsim)", "Figs. Compare_Weak, "
+                  "study2_Weak_noVSC", "offline", EMTW_CLAIMS, _weak, "",
+                  "Offline; needs the optional extra `emt`. The farm one aggregated current source with the WPP's Q; "
+                  "F7's SDViSC case as the four SDViSCs of cluster 3.")
