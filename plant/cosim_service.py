@@ -62,6 +62,8 @@ class ServiceConditions:
     n_turbines: int = 50
     params: dict = field(default_factory=lambda: {"h": 3.0})
     """The START request's ViSC parameters."""
+    law: str = "visc"
+    """The SDC's law (sdc_unit.laws.LAWS)."""
     method: str = "tustin"
     dtype: str = "float64"
     p_star: float | None = None
@@ -103,7 +105,7 @@ def run_service_sdc(cond: ServiceConditions = ServiceConditions(), lag=1, quanti
     plant, idx = _plant(cond)
     n_visc = len(idx)
     lags = _lag_table(lag, cond.n_steps, n_visc)
-    bank = ControllerBank(n_visc, cond.step_s, method=cond.method, dtype=cond.dtype)
+    bank = ControllerBank(n_visc, cond.step_s, method=cond.method, dtype=cond.dtype, law=cond.law)
     start = np.asarray(cond.start_steps)
     first = np.asarray(cond.first_used_seq)
     start_request = {"mask": mask_of(cond.params), **{k: float(v) for k, v in cond.params.items() if k in VISC_PARAMS}}
