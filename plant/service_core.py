@@ -128,7 +128,8 @@ class PlantCore:
         self.k = 0
         self.live = live if live is not None else LivePublisher(None, [])
         self.events_applied: list[dict] = self.live.events
-        self.batteries = {name: farm_index(name, model.n) for name in cfg.batteries}
+        given = {t.name: t.plant_index for t in cfg.turbines}
+        self.batteries = {name: farm_index(name, model.n, given=given.get(name)) for name in cfg.batteries}
         self.soc_start = {name: float(model.tb.batt.soc[i]) for name, i in self.batteries.items()}
         self.stop_requested = False
         self._newest: dict[int, wire.Message] = {}  # model index -> the newest CTRL received since the last step

@@ -6,27 +6,42 @@ from __future__ import annotations
 
 from sdvisc import wire
 from sdvisc.config import PlantConfig
+from sdvisc.vocabulary import PLANT_TURBINES_PER_CLUSTER as FARM_TURBINES_PER_CLUSTER
+from sdvisc.vocabulary import plant_index
 
-FARM_TURBINES_PER_CLUSTER = 10
 
-
-def farm_index(name: str, n_farm: int, onshore_units: int = 0) -> int:
-    """Converter index of host ``wt<c>_<n>`` in the farm model: ``(c-1)*10 + n-1``. The onshore units
+def farm_index(name: str, n_farm: int, onshore_units: int = 0, given: int | None = None) -> int:
+    """Converter index of host ``name`` in the farm model: ``given``, the topology's ``plant_index`` of
+    it (``TurbineEndpoint.plant_index``), or for an endpoint written without one
+    :func:`sdvisc.vocabulary.plant_index` (``wt<c>_<n>``: ``(c-1)*10 + n-1``). The onshore units
     follow the farm's ``n_farm`` turbines (``PlantParams.onshore_units``): host ``wt6_<k>`` of the
     50-turbine farm is converter 50 + k - 1 (sdvisc.vocabulary.ONSHORE_CLUSTER)."""
     c, n = wire.parse_turbine(name)
-    index = (c - 1) * FARM_TURBINES_PER_CLUSTER + (n - 1)
-    if n > FARM_TURBINES_PER_CLUSTER or index >= n_farm + onshore_units:
+    index = plant_index(c, n) if given is None else given
+    if (given is None and n > FARM_TURBINES_PER_CLUSTER) or index >= n_farm + onshore_units:
         units = f" and {onshore_units} onshore unit{'s' * (onshore_units > 1)}" if onshore_units else ""
         raise ValueError(f"turbine host {name} has no converter in the {n_farm}-turbine farm model{units}")
     return index
+
+
+def endpoint_indices(cfg: PlantConfig) -> dict[str, int]:
+    """Each turbine endpoint's converter as the topology's description gives it (``plant_index``);
+    two endpoints on one converter are refused."""
+    given = {t.name: t.plant_index for t in cfg.turbines if t.plant_index is not None}
+    seen: dict[int, str] = {}
+    for name, index in given.items():
+        if index in seen:
+            raise ValueError(f"turbine hosts {seen[index]} and {name} are both converter {index} of the plant model")
+        seen[index] = name
+    return given
 
 
 def build_model(cfg: PlantConfig, names: list[str]):
     """The plant model and the model index of each turbine endpoint (by host name).
 
     ``minimal``: one model turbine per turbine host. ``full``: the 50-turbine farm of
-    :mod:`plant.sim`; host ``wt<c>_<n>`` is farm turbine ``(c-1)*10 + n-1``, the other farm
+    :mod:`plant.sim`; a turbine host is the farm turbine its ``plant_index`` says (the topology's,
+    :func:`farm_index`), the other farm
     turbines run without a network endpoint (grid following); with ``cfg.onshore_units`` the plant has
     that many aggregated onshore units after its turbines (``PlantParams.onshore_units``), host
     ``wt6_<k>`` being unit k (converter 50 + k - 1, ``plant.cases.COMPARISON_UNIT`` for k = 1). The full model takes ``cfg.grid``
@@ -59,8 +74,10 @@ def build_model(cfg: PlantConfig, names: list[str]):
                          onshore_units=cfg.onshore_units)
         n_farm = params.n_clusters * FARM_TURBINES_PER_CLUSTER
 
+        given = endpoint_indices(cfg)
+
         def index(name: str) -> int:
-            return farm_index(name, n_farm, cfg.onshore_units)
+            return farm_index(name, n_farm, cfg.onshore_units, given.get(name))
 
         indices = [index(name) for name in names]
         warm_up(replace(params, onshore_units=0), step_s)  # kernels loaded before t = 0, not at the first CTRL packet
@@ -96,8 +113,10 @@ def _emt_model(cfg: PlantConfig, names: list[str]):
         raise ValueError(f"plant.model emt is the paper's comparison arrangement: it needs topology.onshore_units: 1 "
                          f"(its SDViSC, host wt6_1), not {cfg.onshore_units}")
     n_farm = PlantParams().n_clusters * FARM_TURBINES_PER_CLUSTER
-    indices = [farm_index(name, n_farm, 1) for name in names]
-    refused = {name: p for name, p in cfg.p_star.items() if p != 0.0 or farm_index(name, n_farm, 1) != n_farm}
+    given = endpoint_indices(cfg)
+    indices = [farm_index(name, n_farm, 1, given.get(name)) for name in names]
+    refused = {name: p for name, p in cfg.p_star.items()
+               if p != 0.0 or farm_index(name, n_farm, 1, given.get(name)) != n_farm}
     if refused:
         raise ValueError(f"plant.model emt runs its SDViSC at P* = 0 and has no farm turbine of its own: "
                          f"p_star {refused} cannot be applied")

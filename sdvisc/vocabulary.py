@@ -61,6 +61,20 @@ def onshore_host(unit: int) -> str:
         raise ValueError(f"onshore unit {unit}: must be within 1..{MAX_ONSHORE_UNITS}")
     return f"wt{ONSHORE_CLUSTER}_{unit}"
 
+
+PLANT_TURBINES_PER_CLUSTER = 10
+"""Turbines per cluster of the full plant model (plant/params.py: 5 clusters, 50 turbines; the
+paper's farm)."""
+
+
+def plant_index(cluster: int, number: int) -> int:
+    """The full plant model's converter of turbine host ``wt<cluster>_<number>`` (both from 1):
+    ``(cluster-1)*10 + number-1``, the one place of this rule. It runs on past the farm's 50
+    turbines: onshore unit k (host ``wt6_<k>``) is converter 50 + k - 1, after the farm's
+    (``PlantParams.onshore_units``). A topology writes it into each turbine's host entry
+    (``topologies.base.describe``, ``plant_index``), which the processes read."""
+    return (cluster - 1) * PLANT_TURBINES_PER_CLUSTER + number - 1
+
 F_NOMINAL_HZ = 50.0
 """Nominal grid frequency, Hz."""
 OMEGA0 = 2.0 * math.pi * F_NOMINAL_HZ

@@ -19,6 +19,7 @@ from mininet.node import Host, OVSBridge, OVSSwitch, RemoteController
 from mininet.topo import Topo
 from mininet.util import naturalSeq
 
+from sdvisc.vocabulary import plant_index
 from sdvisc.wire_layouts import PORT_TURBINE
 from topologies.options import options_of
 
@@ -33,19 +34,6 @@ SERVICE_HOSTS = {
 def turbine_host(cluster: int, number: int) -> str:
     """Mininet host name of turbine ``number`` of ``cluster`` (both from 1)."""
     return f"wt{cluster}_{number}"
-
-
-PLANT_TURBINES_PER_CLUSTER = 10
-"""Turbines per cluster of the full plant model (plant/params.py: 5 clusters, 50 turbines; the
-paper's farm): host ``wt<c>_<n>`` is its converter :func:`plant_index` ``(c-1)*10 + n-1``."""
-
-
-def plant_index(cluster: int, number: int) -> int:
-    """The full plant model's converter of turbine ``number`` of ``cluster`` (both from 1): the one
-    place of this rule. It continues past the farm's 50 turbines: the onshore units' hosts
-    ``wt6_<k>`` are converters 50 + k - 1, after the farm's (``PlantParams.onshore_units``). Written
-    into each turbine's host entry (:func:`describe`, ``plant_index``), which the processes read."""
-    return (cluster - 1) * PLANT_TURBINES_PER_CLUSTER + number - 1
 
 
 def turbine_ip(cluster: int, number: int) -> str:
@@ -199,7 +187,7 @@ class TestbedTopo(Topo):
 
     def add_turbine(self, cluster: int, number: int, plant: int | None = None) -> str:
         """Turbine host ``wt<cluster>_<number>``; ``plant``: its converter in the full plant model
-        (default :func:`plant_index`)."""
+        (default :func:`sdvisc.vocabulary.plant_index`)."""
         name = turbine_host(cluster, number)
         return self.addHost(
             name,

@@ -96,7 +96,7 @@ def test_the_plant_service_builds_the_comparison_arrangement(tmp_path):
         ("name: t\nduration_s: 3\ntopology:\n  name: farm\n  clusters: 6\n  onshore_units: 1\nplant: {model: full}\n",
          6, "topology.onshore_units", "at most 5 clusters"),
         ("name: t\nduration_s: 3\nplant: {model: minimal}\ntopology:\n  name: farm\n  onshore_units: 1\n", 6,
-         "topology.onshore_units", "needs plant.model: full, not minimal"),
+         "topology.onshore_units", "needs plant.model: full or emt, not minimal"),
         (FARM % "" + "plant: {model: full}\ntimeline:\n  - {t: 1.0, do: visc_on, wt: wt6_1}\n", 6, "timeline.0.wt",
          "turbine 'wt6_1' is not in topology farm"),
         (FARM % ", onshore_units: 1" + "plant: {model: full, p_star: {wt6_2: 0.0}}\n", 4, "plant.p_star.wt6_2",

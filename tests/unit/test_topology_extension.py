@@ -156,3 +156,22 @@ def test_the_run_record_reads_the_plant_index_the_run_was_given(tmp_path):
                                                 ("1.5ms", 1.5e-3), (250, 2.5e-4), ("40", 4e-5)])
 def test_a_mininet_delay_in_seconds(delay, seconds):
     assert delay_seconds(delay) == pytest.approx(seconds, rel=1e-12)
+
+
+def test_the_plant_takes_the_converter_the_description_gives():
+    from plant.service_model import endpoint_indices, farm_index
+    from sdvisc.config import PlantConfig
+
+    def config(*turbines):
+        return PlantConfig(step_s=0.00067, out_dir="unused", duration_s=1.0, model="full", turbines=[
+            {"name": name, "wid": 100 + k + 1, "ip": f"10.0.1.{k + 1}", "plant_index": index}
+            for k, (name, index) in enumerate(turbines)])
+
+    given = endpoint_indices(config(("wt1_1", 7), ("wt1_2", None)))
+    assert given == {"wt1_1": 7}
+    assert farm_index("wt1_1", 50, given=given.get("wt1_1")) == 7
+    assert farm_index("wt1_2", 50, given=given.get("wt1_2")) == 1  # an endpoint written without one: the rule
+    with pytest.raises(ValueError, match="wt1_1 and wt1_2 are both converter 7"):
+        endpoint_indices(config(("wt1_1", 7), ("wt1_2", 7)))
+    with pytest.raises(ValueError, match="wt1_1 has no converter in the 50-turbine farm model"):
+        farm_index("wt1_1", 50, given=50)
