@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import re
 import struct
+import sys
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
@@ -159,9 +160,15 @@ def read(run) -> dict | None:
     path = run.out / PCAP
     if peer is None or peer.emulate or run.t0 is None or not path.exists() or path.stat().st_size == 0:
         return None
-    stats = turbine_stats(udp_datagrams(frames(path)), card_ip=peer.ip, header=peer.framing == "villas",
-                          turbines=dict(peer.turbines), from_wall=run.clock.from_wall, t0=run.t0,
-                          step_s=run.scenario.step_s)
+    from scapy.error import Scapy_Exception  # noqa: PLC0415 - as frames()
+
+    try:
+        stats = turbine_stats(udp_datagrams(frames(path)), card_ip=peer.ip, header=peer.framing == "villas",
+                              turbines=dict(peer.turbines), from_wall=run.clock.from_wall, t0=run.t0,
+                              step_s=run.scenario.step_s)
+    except (Scapy_Exception, OSError, EOFError) as exc:  # e.g. tcpdump killed before its file header
+        print(f"sdvisc: the capture of the card's traffic ({path}) is unreadable: {exc}", file=sys.stderr)
+        return None
     try:
         drops = KERNEL_DROPS.search((run.out / f"{PROCESS}.log").read_text())
     except OSError:

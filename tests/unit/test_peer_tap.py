@@ -95,3 +95,16 @@ def test_without_a_pause_there_is_no_gap_and_ak_stays_one(tmp_path):
     path, n, _ = _capture(tmp_path, stop_s=9.0, resume_s=9.0)
     row = _stats(path)["turbines"]["wt1_1"]
     assert row["ctrl_gaps_wall"] == [] and row["ak_zero"] == [] and row["ctrl_rx"] == n
+
+
+def test_an_unreadable_capture_leaves_the_counts_unknown_and_says_so(tmp_path, capsys):
+    from types import SimpleNamespace
+
+    from scenarios.peer_tap import PCAP, read
+
+    (tmp_path / PCAP).write_bytes(b"\xd4\xc3\xb2")  # tcpdump ended before its file header was whole
+    peer = SimpleNamespace(emulate=False, ip=CARD, framing="native", turbines={"wt1_1": 50101}, interface="eth9")
+    run = SimpleNamespace(out=tmp_path, t0=T0, clock=SimpleNamespace(from_wall=lambda w: w),
+                          scenario=SimpleNamespace(plant=SimpleNamespace(peer=peer), step_s=TS))
+    assert read(run) is None
+    assert "unreadable" in capsys.readouterr().err
