@@ -84,3 +84,27 @@ def test_the_bank_runs_it_and_a_request_sets_its_runtime_words():
     bank.set_params(0, {"mask": int(wire.ParamMask.V_REF), "v_ref": 1.03})
     out, _ = bank.step(np.array([0]), _rows(OP))
     assert abs(out["e_mag"][0] - before - 0.03) < 1e-6
+
+
+def test_the_sdc_core_answers_with_the_droop_law(tmp_path):
+    """sdc.law: droop reaches the service's core: a started turbine's first MEAS is answered by a
+    CTRL whose voltage reference is the droop law's bumpless start (v + (r_f + j l_f) i)."""
+    from sdc_unit.core import SdcCore
+    from sdvisc.config import SdcConfig
+    from sdvisc.vocabulary import BLANK_REQUEST_PARAMS
+
+    sdn_app = ("127.0.0.2", wire.PORT_CONTROLLER)
+    core = SdcCore(SdcConfig(step_s=TS, controller_vip=sdn_app[0], capacity=4, out_dir=str(tmp_path), law="droop"))
+    start = {"req_id": 1, "cmd": int(wire.Command.START_INSTANCE), "wt": 101, "sdc_ip": 0, **BLANK_REQUEST_PARAMS}
+    core.handle([(wire.encode(wire.MsgType.REQUEST, start, header=wire.Header(1, 0, 0)), sdn_app)], 10.0)
+    meas = wire.encode(wire.MsgType.MEAS, {"wt": 101, "seq": 1, "t_sim": TS, **OP}, header=wire.Header(1, 50, 0))
+    out = core.handle([(meas, ("10.0.1.1", 40000))], 10.001)
+    answers = [wire.decode(d, header=True) for d, _, _ in out.sends]
+    ctrl = [m for m in answers if m.type == wire.MsgType.CTRL]
+    assert len(ctrl) == 1
+    p = DroopParams()
+    v, i = OP["v_d"] + 1j * OP["v_q"], OP["i_d"] + 1j * OP["i_q"]
+    expected = v + (p.r_f + 1j * p.l_f) * i
+    # one trapezoid step from the start on the same sample moves it by far less than 1e-3 p.u.
+    assert abs(ctrl[0].values["v_ref_d"] - expected.real) < 1e-3
+    assert abs(ctrl[0].values["v_ref_q"] - expected.imag) < 1e-3
