@@ -126,8 +126,9 @@ def _seconds(text: str) -> float:
 
 def _print_result(summary: dict, out: Path) -> None:
     if summary["steps"] is None:  # a real card (scenarios/summary_turbines.py): its steps are its own
-        print(f"sdvisc: {summary['scenario']}: {summary['duration_s']:g} s on the run's clock, steps of "
-              f"{summary['step_s'] * 1e3:.2f} ms {NOT_COUNTED}; {(summary.get('peer') or {}).get('counted_at')}")
+        print(f"sdvisc: {summary['scenario']}: {summary['duration_s']:g} s on the run's clock; the card's steps of "
+              f"{summary['step_s'] * 1e3:.2f} ms: {NOT_COUNTED}; its side counted from "
+              f"{(summary.get('peer') or {}).get('counted_at')}")
     else:
         print(f"sdvisc: {summary['scenario']}: {summary['steps']} steps of {summary['step_s'] * 1e3:.2f} ms, "
               f"{summary['late_steps']} late")
