@@ -22,9 +22,10 @@ from plant.emt.devices import FarmReplay
 from plant.emt.model import EmtComparison
 from plant.emt.operating_point import phasor_farm_current
 from report import figures
-from report.exp_grid import f6_events, iec60909_kappa, sc_first_peak_dynamic
+from report.exp_grid import _worst, f6_events, iec60909_kappa, sc_first_peak_dynamic
 from report.plantcases import window
 from report.registry import CONSISTENCY, Context, Experiment, Finding, PaperClaim
+from report.verdicts import change_close_to, close_to, holds
 from sdvisc.vocabulary import OMEGA0
 
 YES, PARTLY = 0.05, 0.15  # relative difference EMT vs phasor: yes within 5 % (issue 40's goal), partly 15 %
@@ -97,9 +98,14 @@ def _emt_f3(ctx: Context) -> Finding:
                    f"≈ 1.035 p.u. (F3.a). The farm is a constant-P/Q injection in the EMT circuit (the phasor "
                    f"plant's WPP Q/V control is not in it): PCC at the end {res['sc'][0]['v_pcc_after']:.4f} EMT "
                    f"vs {res['sc'][1]['v_pcc_after']:.4f} phasor (SC case)",
-                   {dev: {"emt": {k: v for k, v in e.items() if k not in ("t", "v_t")},
-                          "phasor": {k: v for k, v in p.items() if k not in ("t", "v_t")}, "rel_diff": d[dev]}
-                    for dev, (e, p) in res.items()})
+                   {**{dev: {"emt": {k: v for k, v in e.items() if k not in ("t", "v_t")},
+                             "phasor": {k: v for k, v in p.items() if k not in ("t", "v_t")}, "rel_diff": d[dev]}
+                       for dev, (e, p) in res.items()},
+                    "printed": {"reading": "EMT: each device's own terminal, positive-sequence V1 (one-cycle mean of "
+                                          "the Park phasor), final value after V* 1.00 → 1.04 (SC and SDViSC)",
+                                "value": " / ".join(f"{names[dev]} {e['after']:.3f}" for dev, (e, _) in res.items()),
+                                "verdict": _worst(*(change_close_to(e["before"], e["after"], 1.0, 1.035)
+                                                    for e, _ in res.values()))}})
 
 
 # ------------------------------------------------------------------------------------------------ F6
@@ -204,7 +210,11 @@ def _emt_f6(ctx: Context) -> dict[str, Finding]:
                 "Paper (F6.a): ≈ 4 p.u. (its instant unknown)",
                 {"emt_first_peak_at_1s": s["i_first_peak"], "emt_scan": scan, "emt_worst": worst,
                  "phasor_i_initial": ph["sc"]["i_initial"], "phasor_kappa_i": k_peak, "kappa": kappa,
-                 "dynamic_phasor_first_peak": dyn_peak, "rel_diff": d_a})
+                 "dynamic_phasor_first_peak": dyn_peak, "rel_diff": d_a,
+                 "printed": {"reading": "EMT: the SC's largest instantaneous phase current (own side) in the first "
+                                        "cycle of F6's fault at its instant (1.0 s), DC offset included",
+                             "value": f"{s['i_first_peak']:.2f}", "verdict": close_to(s["i_first_peak"], 4.0),
+                             "alternatives": {f"largest over {len(scan)} points on the wave": f"{worst:.2f}"}}})
     d_b = {"terminal": rel(ph["sc"]["v1_t"], rep["sc"]["v1_t"]), "pcc": rel(ph["sc"]["v1_pcc"], rep["sc"]["v1_pcc"])}
     b = Finding(f"SC terminal V1 {ph['sc']['v1_t']:.3f} phasor, {rep['sc']['v1_t']:.3f} EMT (phasor farm's current), "
                 f"{s['v1_t']:.3f} EMT (its own farm); its phases (RMS, own side) {_fmt3(rep['sc']['v_t_phase_rms'])} / "
@@ -219,7 +229,10 @@ def _emt_f6(ctx: Context) -> dict[str, Finding]:
                 f"{DURING[0]}–{DURING[1]} s. " + _why_v1(ph["z2_sc"], s["z2_pcc"])
                 + ". Paper (F6.b): the residual voltage with the SC "
                 f"> 0.7 p.u.: EMT terminal V1 {s['v1_t']:.3f}, its lowest phase {min(s['v_t_phase_rms']):.3f}",
-                {"emt": _no_trace(s), "emt_phasor_farm": _no_trace(rep["sc"]), "phasor": ph["sc"], "rel_diff": d_b})
+                {"emt": _no_trace(s), "emt_phasor_farm": _no_trace(rep["sc"]), "phasor": ph["sc"], "rel_diff": d_b,
+                 "printed": {"reading": "EMT: SC terminal V1 during the fault (the EMT's own farm; a bound)",
+                             "value": f"{s['v1_t']:.3f}", "verdict": holds(s["v1_t"] > 0.7),
+                             "alternatives": {"lowest phase RMS": f"{min(s['v_t_phase_rms']):.3f}"}}})
     d_c = rel(ph["visc"]["i_max"], v["i1_max"])
     c_row = Finding(f"SDViSC largest current: phasor {ph['visc']['i_max']:.3f} p.u.; EMT positive sequence "
                     f"{v['i1_max']:.3f} (mean in the fault {v['i1_during']:.3f}, negative sequence "
@@ -251,7 +264,10 @@ def _emt_f6(ctx: Context) -> dict[str, Finding]:
                 f"{rv['i1_during']:.2f}). " + _why_v1(ph["z2_sc"], s["z2_pcc"])
                 + f". Paper (F6.d): ≈ 0.6 p.u., below the SC's: EMT terminal V1 {v['v1_t']:.3f}, its lowest phase "
                 f"{min(v['v_t_phase_rms']):.3f}",
-                {"emt": _no_trace(v), "emt_phasor_farm": _no_trace(rv), "phasor": ph["visc"], "rel_diff": d_d})
+                {"emt": _no_trace(v), "emt_phasor_farm": _no_trace(rv), "phasor": ph["visc"], "rel_diff": d_d,
+                 "printed": {"reading": "EMT: SDViSC terminal V1 during the fault (the EMT's own farm)",
+                             "value": f"{v['v1_t']:.3f}", "verdict": close_to(v["v1_t"], 0.6),
+                             "alternatives": {"lowest phase RMS": f"{min(v['v_t_phase_rms']):.3f}"}}})
     _f6_figure(ctx, emt)
     ctx.numbers["emt_cpu_s"] = {dev: e["cpu_s"] for dev, e in emt.items()}
     return {"EMT.F6a": a, "EMT.F6b": b, "EMT.F6c": c_row, "EMT.F6d": d}
