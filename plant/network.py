@@ -1,6 +1,8 @@
 """Quasi-static positive-sequence network of the wind farm, p.u. on the network base.
 
-Nodes (``topology="farm"``, N turbines, C clusters)::
+The nodes after the turbine terminals and the collector's elements are the layout's
+(``PlantParams.topology``, :data:`plant.collectors.COLLECTORS`). Nodes (``topology="farm"``, N
+turbines, C clusters)::
 
     0 .. N-1        turbine LV terminals (0.69 kV; filter capacitor cf as a shunt)
     N .. N+C-1      cluster 66 kV nodes (each cluster's strings aggregated into one pi-section)
@@ -45,6 +47,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg as sla
 
+from plant.collectors import collector_layout
 from plant.dynamic_network import GRID_SOURCE, GROUND, SC_SOURCE, Companion, Elements, History
 from plant.params import PlantParams
 from sdvisc.vocabulary import OMEGA0
@@ -102,26 +105,8 @@ class Network:
         self.cache_hits = 0  # factorisations taken from the cache (see factorize)
         self._factor_cache: dict[tuple, dict] = {}
         self.topology = params.topology
-        n = n_turbines
-        if self.topology == "farm":
-            c = params.n_clusters
-            nf = self.n_farm
-            self.cluster_of = np.r_[(np.arange(nf) * c) // max(nf, 1), np.full(n - nf, -1)]  # -1: onshore unit
-            self.cluster_nodes = n + np.arange(c)
-            k = n + c
-            self.os_mv, self.os_hv = k, k + 1
-            ns = g.export_sections
-            self.cable_nodes = np.arange(k + 1, k + 2 + ns)  # os_hv ... on_hv (ns+1 nodes)
-            self.on_hv = int(self.cable_nodes[-1])
-            self.pcc = self.on_hv + 1
-            self.sc = self.pcc + 1
-        elif self.topology == "single":
-            self.cluster_of = np.zeros(n, dtype=int)
-            self.cluster_nodes = np.array([], dtype=int)
-            self.pcc, self.sc = n, n + 1
-            self.os_mv = self.os_hv = self.on_hv = self.pcc
-        else:
-            raise ValueError(f"unknown topology {self.topology!r}")
+        self.collector = collector_layout(params.topology)  # node numbers and the collector's elements
+        self.collector.place(self)
         self.n_nodes = self.sc + 1
         self.dirty = True
         self.factorize()
@@ -174,30 +159,8 @@ class Network:
             if k >= self.n_farm:  # onshore unit: its aggregated turbine transformers + its step-up, at the pcc
                 el.rl(k, self.pcc, self.z_onshore_unit(), on)
                 continue
-            to = self.cluster_nodes[self.cluster_of[k]] if self.topology == "farm" else self.pcc
-            el.rl(k, int(to), z_ttr, on)
-
-        def pi_section(a: int, b: int, z: complex, bsh: float) -> None:
-            el.rl(a, b, z)
-            el.shunt_c(a, 0.5 * bsh)
-            el.shunt_c(b, 0.5 * bsh)
-
-        if self.topology == "farm":
-            za, ba = self._cable(g.array_km, g.array_r_ohm_km, g.array_l_mh_km, g.array_c_nf_km, g.v_array_kv)
-            for cn in self.cluster_nodes:
-                pi_section(int(cn), self.os_mv, za, ba)
-            el.rl(self.os_mv, self.os_hv, complex(g.r_otr, g.x_otr) * self.sb / g.s_otr_mva)
-            ns = g.export_sections
-            ze, be = self._cable(
-                g.export_km / ns, g.export_r_ohm_km, g.export_l_mh_km, g.export_c_nf_km, g.v_export_kv
-            )
-            for s in range(ns):
-                pi_section(int(self.cable_nodes[s]), int(self.cable_nodes[s + 1]), ze, be)
-            b_comp = g.comp_fraction * be * ns / 2.0  # half of the total charging at each end
-            if b_comp > 0.0:  # shunt reactors: admittance -j b_comp = 1/(j x), x = 1/b_comp
-                el.rl(self.os_hv, GROUND, 1j / b_comp)
-                el.rl(self.on_hv, GROUND, 1j / b_comp)
-            el.rl(self.on_hv, self.pcc, self.z_ontr())
+            el.rl(k, self.collector.turbine_bus(self, k), z_ttr, on)
+        self.collector.add_elements(self, el)
         self.grid_element = len(el.a)
         el.rl(self.pcc, GRID_SOURCE, self.z_grid())
         el.rl(self.sc, self.pcc, self.z_sc_tr())
@@ -235,11 +198,7 @@ class Network:
         zs = [self.p.grid.k0_grid * self.z_grid()]
         if self.sc_connected:
             zs.append(self.z_sc_tr())
-        if self.topology == "farm":
-            zs.append(self.z_ontr())
-            for k in range(self.n_farm, self.n):
-                if self.plugged[k]:  # its step-up alone: the turbine transformers are behind its delta
-                    zs.append(complex(0.0, self.p.x_onshore_step_up) * self.sb / self.p.onshore_unit_mva)
+        zs += self.collector.zero_sequence(self)  # the farm: the onshore transformer, each plugged unit's step-up
         return _par(*zs)
 
     def fault_shunt_of(self, z2: complex, z0: complex) -> complex:
