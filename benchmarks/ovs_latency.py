@@ -204,7 +204,7 @@ class PatchLinks:
 def measure_topology(topology: str, repeat: int = 20, params: dict | None = None, links: str = "veth") -> dict:
     """``port_event_stall_ms`` and ``ff_port_down_ms`` on the testbed's ``topology`` (module docstring);
     ``links="patch"``: switch-to-switch links as patch ports (:class:`PatchLinks`)."""
-    params = params or {"paper": {"clusters": 5, "turbines": 2}, "farm": {"clusters": 5, "turbines": 10}}[topology]
+    params = params or {}  # the topology's own defaults (its options_model): paper 5 x 2, farm 5 x 10 compact
     cleanup.clean()
     net = Mininet(topo=topos[topology](**params), switch=TestbedSwitch, controller=None, build=False,
                   link=OVSLink if links == "patch" else Link)
@@ -298,7 +298,7 @@ def main() -> None:
     ap.add_argument("--load", type=int, default=0, help="extra 1500 packet/s streams through the bridge")
     ap.add_argument("--port-type", choices=PORT_TYPES, default="system",
                     help="the switch side of the veths: system (Mininet's default) or AF_XDP")
-    ap.add_argument("--topology", choices=("paper", "farm"),
+    ap.add_argument("--topology", choices=tuple(topos),
                     help="instead: the port-event stall and fast failover on this testbed topology")
     ap.add_argument("--layout", choices=("compact", "tower"), default="compact", help="farm's layout (--topology farm)")
     ap.add_argument("--links", choices=("veth", "patch"), default="veth",
