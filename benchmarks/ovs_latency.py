@@ -56,6 +56,7 @@ from scenarios.switch_ports import SWITCH_PORT_TYPES  # noqa: E402
 from sdvisc.netns import set_link_up  # noqa: E402
 from topologies import topos  # noqa: E402
 from topologies.base import TestbedSwitch, default_datapath  # noqa: E402
+from topologies.options import options_of  # noqa: E402
 
 SENDER = """
 import socket, sys, time
@@ -204,7 +205,7 @@ class PatchLinks:
 def measure_topology(topology: str, repeat: int = 20, params: dict | None = None, links: str = "veth") -> dict:
     """``port_event_stall_ms`` and ``ff_port_down_ms`` on the testbed's ``topology`` (module docstring);
     ``links="patch"``: switch-to-switch links as patch ports (:class:`PatchLinks`)."""
-    params = params or {}  # the topology's own defaults (its options_model): paper 5 x 2, farm 5 x 10 compact
+    params = options_of(topos[topology]).model_validate(params or {}).model_dump()  # its defaults: paper 5 x 2, farm 5 x 10
     cleanup.clean()
     net = Mininet(topo=topos[topology](**params), switch=TestbedSwitch, controller=None, build=False,
                   link=OVSLink if links == "patch" else Link)
