@@ -54,6 +54,8 @@ def _not_an_option(section: dict) -> str:
     from topologies.options import described_options
 
     name = section.get("name", "paper")
+    if not isinstance(name, str):
+        return "not an option of the topology"
     try:
         return f"not an option of topology {name} (its options: {described_options(topology_class(name, None))})"
     except TopologyNotFound:  # a custom one: named in its own error if unknown
@@ -221,7 +223,10 @@ class _Parts:
         from topologies.base import describe
 
         topo = self.topology
-        desc = describe(topo.topo_class()(**topo.params()))
+        try:
+            desc = describe(topo.topo_class()(**topo.params()))
+        except Exception as exc:  # noqa: BLE001 - a custom topology's build is the user's code: say what it raised
+            return [(("topology",), f"topology {topo.label()} cannot be built: {type(exc).__name__}: {exc}")]
         problems = external_problems(desc, topo.external_switches, self.peer)
         if self.cluster is not None:
             problems += cluster_problems(desc, self.cluster, self.events)

@@ -19,7 +19,7 @@ from pydantic import BaseModel, ConfigDict, Field, create_model
 class TopologyOptions(BaseModel):
     """Base of every topology's options: unknown keys and NaN/inf refused, as in the scenario file."""
 
-    model_config = ConfigDict(extra="forbid", allow_inf_nan=False)
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, arbitrary_types_allowed=True)
 
 
 class ClusteredOptions(TopologyOptions):

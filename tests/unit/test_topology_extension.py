@@ -175,3 +175,26 @@ def test_the_plant_takes_the_converter_the_description_gives():
         endpoint_indices(config(("wt1_1", 7), ("wt1_2", 7)))
     with pytest.raises(ValueError, match="wt1_1 has no converter in the 50-turbine farm model"):
         farm_index("wt1_1", 50, given=50)
+
+
+def test_a_custom_topology_that_fails_to_build_is_named(tmp_path):
+    (tmp_path / "broken.py").write_text(CUSTOM.replace('x1, x2 = self.add_switch', 'raise KeyError("no x3")\n        x1, x2 = self.add_switch'))
+    path = _scenario(tmp_path, "name: line\ncustom: broken.py\n")
+    message = _error(path)
+    assert message.startswith(f"{path}:3: topology: topology line (clusters=5, turbines=2) cannot be built: "
+                              "KeyError: 'no x3'"), message
+
+
+def test_a_plain_mininet_topo_gets_its_options_from_build(tmp_path):
+    (tmp_path / "plain.py").write_text(textwrap.dedent('''
+        from mininet.topo import Topo
+
+        class Pair(Topo):
+            def build(self, hosts: int = 2, label="x"):
+                pass
+
+        topos = {"pair": Pair}
+    '''))
+    sc_path = _scenario(tmp_path, "name: pair\ncustom: plain.py\nhosts: many\n")
+    message = _error(sc_path)
+    assert f"{sc_path}:6: topology.hosts: Input should be a valid integer" in message, message
