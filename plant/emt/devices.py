@@ -34,6 +34,9 @@ class CondenserEmf:
         return complex(self.model.e_net(self.x)) + self.model.flux_emf(self.x, i_sc)
 
 
+_MEAS_ORDER = [("v_d", "v_q", "i_d", "i_q", "p", "q", "v_dc", "omega_meas").index(name) for name in K.MEAS_ROWS]
+
+
 class ViscConverter:
     """The 40 MVA SDViSC: the continuous ViSC law (sdc_unit.law's equations, compiled by sdc_unit.law_jit;
     the SDC's ViscParams) sampled every ``EmtComparison.law_every`` circuit steps (1: the HD ViSC; 13: Ts)
@@ -73,9 +76,8 @@ class ViscConverter:
         state advanced by ``ts`` (forward Euler), v_ref held."""
         i = i_net / self.k
         s = v_t * i.conjugate()
-        meas = {"v_d": v_t.real, "v_q": v_t.imag, "i_d": i.real, "i_q": i.imag, "p": s.real, "q": s.imag,
-                "v_dc": 1.0, "omega_meas": 1.0}
-        self._m[:] = [meas[name] for name in K.MEAS_ROWS]
+        vals = (v_t.real, v_t.imag, i.real, i.imag, s.real, s.imag, 1.0, 1.0)
+        self._m[:] = [vals[k] for k in _MEAS_ORDER]
         law_jit.law_rhs(self.x, self._m, self._c, self._dx, self._out)
         self.x += ts * self._dx
         o = self._out
