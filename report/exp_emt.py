@@ -336,4 +336,4 @@ EMT = Experiment("EMT", "EMT cross-check of F3 and F6 (DPsim)", "Figs. Compare_V
                  EMT_CLAIMS, _emt, "",
                  "Offline; needs the optional extra `emt` (PyPI dpsim 1.4.0, installed by ./testbed). The comparison "
                  "arrangement only (grid Thevenin source, farm as one injection at the PCC, the SC or the SDViSC); "
-                 "F1, F7–F9 not on EMT yet.")
+                 "F8 on EMT: EMTF8; F7 and F9: EMTW; F1 not on EMT.")
