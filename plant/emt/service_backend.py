@@ -113,6 +113,9 @@ class EmtServiceBackend:
         self.visc = ViscConverter(op.visc_params, op.law_state, op.k_device, op.v_terminal, op.e_source, turbine)
         if k_ad is not None:
             self.visc.k_ad = float(k_ad)
+        # the law's compiled code loaded now, not in the first paced step (~0.45 s, a stall at t = 0)
+        ViscConverter(op.visc_params, op.law_state, op.k_device, op.v_terminal, op.e_source,
+                      turbine).sample(op.v_terminal, op.i_device, step_s)
         i_farm = op.i_farm + op.v_pcc / arrangement.R_DAMP  # with the PCC's damping resistor, as EmtComparison
         self.farm = FarmInjection(op.v_pcc * np.conj(i_farm),
                                   n_farm * turbine.s_rated_mva / phasor.params.grid.s_base_mva, turbine)
