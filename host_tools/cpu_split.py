@@ -9,8 +9,9 @@ others have just used. Split, the switch never waits for an endpoint and each si
 
 :func:`plan` chooses the CPUs (the highest allowed CPU for the switch, the rest for the run; nothing
 with fewer than two). :func:`apply` pins every thread of every ovs-vswitchd process and of the calling
-process (so every host shell and service the run starts afterwards inherits the endpoints' CPUs) and
-writes what it changed to :data:`MARKER` first; :func:`restore` puts everything back and removes the
+process (so every host shell and service the run starts afterwards inherits the endpoints' CPUs), puts
+the switch's main thread at SCHED_FIFO (:data:`SWITCH_PRIORITY`) and writes what it changed to
+:data:`MARKER` first; :func:`restore` puts everything back and removes the
 marker. :func:`host_tools.cleanup.clean` calls :func:`restore` too, so a run that was killed leaves no
 pinned switch behind once any later run or ``sdvisc clean`` starts.
 """
@@ -23,6 +24,15 @@ from pathlib import Path
 
 MARKER = Path("/run/sdvisc-cpu-split.json")
 SWITCH_COMMS = ("ovs-vswitchd",)
+SWITCH_PRIORITY = 5
+"""SCHED_FIFO priority of ovs-vswitchd's main thread while the split is in place (below the plant's
+and the SDC's 10, :func:`sdvisc.netns.raise_priority`; they run on the other CPUs). The main thread
+forwards every packet of the userspace datapath's system ports; at SCHED_OTHER, any other busy
+process on its CPU delays its wake-up by up to a scheduler tick (4 ms at CONFIG_HZ=250): all_visc_50's
+answers at k = 8 then came ~4.4 ms late on the return path, every turbine at once
+(benchmarks/switch_wake_latency.py: p99 35.7 ms at SCHED_OTHER, 0.11 ms at SCHED_FIFO beside a busy
+process; benchmarks/measured/switch-wake-latency-2026-12-06.json). Its other threads (revalidators,
+PMD threads that spin) keep their policy."""
 
 
 def plan(allowed: set[int]) -> tuple[list[int], list[int]] | None:
@@ -89,10 +99,33 @@ def apply() -> dict:
              "switch_default": sorted(allowed),
              "runner_pid": os.getpid(),
              "runner": {str(t): _affinity(t) for t in own_threads}}
+    mains = [pid for pid in switch_processes() if len(_threads(pid)) > 1]  # the worker, not its --monitor
+    saved["switch_policy"] = {str(t): _policy(t) for t in mains}
     MARKER.write_text(json.dumps(saved))
     pinned = _pin(switch_threads, switch_cpus)
     _pin(own_threads, run_cpus)
-    return {"applied": True, "switch_cpus": switch_cpus, "run_cpus": run_cpus, "switch_threads": pinned}
+    fifo = _set_policy(mains, (os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, SWITCH_PRIORITY))
+    return {"applied": True, "switch_cpus": switch_cpus, "run_cpus": run_cpus, "switch_threads": pinned,
+            "switch_main_thread": f"SCHED_FIFO:{SWITCH_PRIORITY}" if fifo else "unchanged (not permitted)"}
+
+
+def _policy(tid: int) -> list[int] | None:
+    try:
+        return [os.sched_getscheduler(tid), os.sched_getparam(tid).sched_priority]
+    except OSError:
+        return None
+
+
+def _set_policy(tids: list[int], policy) -> int:
+    """Set each thread's (policy, priority); how many were set."""
+    done = 0
+    for tid in tids:
+        try:
+            os.sched_setscheduler(tid, policy[0], os.sched_param(policy[1]))
+            done += 1
+        except OSError:
+            pass
+    return done
 
 
 def restore() -> bool:
@@ -104,6 +137,8 @@ def restore() -> bool:
     except (OSError, ValueError):
         return False
     default = saved.get("switch_default") or sorted(os.sched_getaffinity(0))
+    for tid, policy in (saved.get("switch_policy") or {}).items():
+        _set_policy([int(tid)], policy or (os.SCHED_OTHER, 0))
     for pid in switch_processes():
         for tid in _threads(pid):
             _pin([tid], saved["switch"].get(str(tid)) or default)

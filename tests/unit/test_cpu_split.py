@@ -25,3 +25,30 @@ def test_every_allowed_cpu_goes_to_exactly_one_side(allowed):
     switch, run = plan(allowed)
     assert set(switch) | set(run) == allowed and not set(switch) & set(run)
     assert switch and run
+
+
+def test_the_switch_main_thread_runs_at_fifo_while_split_and_gets_its_policy_back(tmp_path, monkeypatch):
+    import os
+
+    import host_tools.cpu_split as split
+
+    threads = {100: [100, 101, 102], 99: [99]}  # ovs-vswitchd (main thread 100) and its --monitor parent 99
+    policy = {t: (os.SCHED_OTHER, 0) for ts in threads.values() for t in ts}
+    policy[555] = (os.SCHED_OTHER, 0)
+    monkeypatch.setattr(split, "MARKER", tmp_path / "split.json")
+    monkeypatch.setattr(split, "switch_processes", lambda: [99, 100])
+    monkeypatch.setattr(split, "_threads", lambda pid: [555] if pid == "self" else threads[pid])
+    monkeypatch.setattr(os, "sched_getaffinity", lambda tid: {0, 1})
+    monkeypatch.setattr(os, "sched_setaffinity", lambda tid, cpus: None)
+    monkeypatch.setattr(os, "sched_getscheduler", lambda tid: policy[tid][0])
+    monkeypatch.setattr(os, "sched_getparam", lambda tid: os.sched_param(policy[tid][1]))
+    monkeypatch.setattr(os, "sched_setscheduler", lambda tid, p, param: policy.__setitem__(tid, (p, param.sched_priority)))
+
+    done = split.apply()
+    assert done["switch_main_thread"] == f"SCHED_FIFO:{split.SWITCH_PRIORITY}"
+    assert policy[100] == (os.SCHED_FIFO | os.SCHED_RESET_ON_FORK, split.SWITCH_PRIORITY)  # the worker's main thread
+    # its other threads (revalidators, PMDs that spin), the --monitor parent, the runner: as they were
+    assert policy[101] == policy[102] == policy[99] == policy[555] == (os.SCHED_OTHER, 0)
+    assert split.restore()
+    assert all(p == (os.SCHED_OTHER, 0) for p in policy.values())
+    assert not split.MARKER.exists()
