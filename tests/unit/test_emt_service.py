@@ -11,8 +11,6 @@ after an SLG fault the terminal comes back within 2 % of its pre-fault value."""
 
 from __future__ import annotations
 
-from types import SimpleNamespace
-
 import numpy as np
 import pytest
 
@@ -20,17 +18,11 @@ from plant import settable
 from plant import turbine as T
 from plant.backend import PlantBackend, close_backend
 from plant.emt.service_backend import EmtServiceBackend
+from plant.emt.service_loop import emt_core, sdc_loop, start_stream
 from plant.minimal import MinimalPlant
-from plant.service_core import PlantCore
-from plant.service_model import build_model
-from sdc_unit.discrete import DiscreteVisc
-from sdvisc import wire
-from sdvisc.config import PlantConfig
 from sdvisc.vocabulary import MEAS_FIELDS
 
 TS = 0.67e-3
-VIP, SDC = "10.0.0.254", "10.0.0.21"
-WIDS = {"wt6_1": 601, "wt1_1": 101}
 
 
 @pytest.fixture(scope="module")
@@ -97,62 +89,18 @@ def test_ctrl_is_the_converters_reference_each_ts_and_its_loss_falls_back(backen
     assert b.mode[b.unit] == T.HD_VISC and b.fallbacks[b.unit] == 1
 
 
-def emt_core(remote_apply: str = "v_ref") -> PlantCore:
-    cfg = PlantConfig(duration_s=1.0, turbines=[{"name": n, "wid": w, "ip": f"10.0.1.{i + 1}"}
-                                                for i, (n, w) in enumerate(WIDS.items())],
-                      out_dir="unused", step_s=TS, controller_vip=VIP, model="emt", onshore_units=1,
-                      remote_apply=remote_apply, p_star={"wt6_1": 0.0})
-    model, indices = build_model(cfg, [t.name for t in cfg.turbines])
-    assert indices == [50, 0]
-    return PlantCore(cfg, model, indices)
-
-
-def request(cmd, wid: int) -> bytes:
-    values = {"req_id": 1, "cmd": int(cmd), "wt": wid, "sdc_ip": wire.ip_to_i32(SDC), "mask": 0, "h": 0.0, "d": 0.0,
-              "m_q": 0.0, "v_ref": 0.0, "q_ref": 0.0, "supp": 0}
-    return wire.encode(wire.MsgType.REQUEST, values, header=wire.Header(1, 2, 3))
-
-
-def closed_loop(core: PlantCore, seconds: float, extra_delay: int = 0, fault=None) -> np.ndarray:
-    """The SDC's Tustin law in-process answering every MEAS with a CTRL through the wire encoding, the
-    CTRL received before the next step (the paper's one-sample loop) or ``extra_delay`` steps later."""
-    ep = core.endpoints[0]
-    law = DiscreteVisc(1, core.model.op.visc_params, ts=TS, method="tustin")
-    pending, v, started = [], [], False
-    for k in range(int(round(seconds / TS))):
-        now = core.k * TS
-        if fault is not None and k in fault:
-            core.apply_event({"type": "fault", "on": fault[k]})
-        if len(pending) > extra_delay:
-            core.receive(ep, pending.pop(0), (SDC, wire.PORT_SDC), now)
-        for _, data, _addr in core.step(now + TS):
-            msg = wire.decode(data, header=True)
-            if msg.type != wire.MsgType.MEAS:
-                continue
-            meas = SimpleNamespace(**{f: np.array([msg[f]]) for f in MEAS_FIELDS})
-            if not started:
-                law.initialise(np.arange(1), meas)
-                started = True
-            o = law.step(meas)
-            values = {"wt": msg["wt"], "seq": msg["seq"], "meas_seq": msg["seq"], "flags": 0,
-                      **{f: float(getattr(o, f)[0]) for f in ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta",
-                                                               "omega", "e_mag")}}
-            pending.append(wire.encode(wire.MsgType.CTRL, values, header=wire.Header(msg["seq"], int(now), 0)))
-        v.append(abs(core.model.v_t))
-    return np.array(v)
-
-
 def test_the_service_core_closes_the_sdc_loop_on_the_emt_plant_and_rides_through_a_fault():
     core = emt_core()
     try:
         wt6, wt1 = core.endpoints
-        core.receive(wt1, request(wire.Command.STREAM_START, WIDS["wt1_1"]), (VIP, wire.PORT_CONTROLLER), 0.0)
+        assert core.model.n == 51 and [wt6.index, wt1.index] == [50, 0]
+        start_stream(core, "wt1_1")
         assert not wt1.streaming and wt1.counts.get("rx_reject_internal") == 1  # aggregated: no converter
-        core.receive(wt6, request(wire.Command.STREAM_START, WIDS["wt6_1"]), (VIP, wire.PORT_CONTROLLER), 0.0)
+        start_stream(core, "wt6_1")
         assert wt6.streaming and core.model.mode[core.model.unit] == T.REMOTE
         v0 = abs(core.model.op.v_terminal)
         n_rest, n_on, n_off = (int(round(s / TS)) for s in (0.15, 0.25, 0.45))
-        v = closed_loop(core, 0.45, fault={n_rest: True, n_on: False})
+        v = sdc_loop(core, 0.45, fault={n_rest: True, n_on: False})
         settled = v[n_rest - int(0.05 / TS):n_rest]  # the law's slow settling from the phasor operating point
         assert np.ptp(settled) < 2e-3 and abs(settled[-1] / v0 - 1.0) < 0.015  # at rest under the SDC's CTRL
         assert np.min(v[n_rest:n_on]) < 0.9 * settled[-1]  # the fault is seen at the terminal
@@ -171,10 +119,9 @@ def test_one_sample_more_in_the_v_ref_loop_diverges_on_the_emt_circuit():
     """plant.emt.service_backend.REMOTE_LOOP_MEASURED: why a network run must keep the one-sample loop."""
     core = emt_core()
     try:
-        wt6 = core.endpoints[0]
-        core.receive(wt6, request(wire.Command.STREAM_START, WIDS["wt6_1"]), (VIP, wire.PORT_CONTROLLER), 0.0)
+        start_stream(core)
         with np.errstate(all="ignore"):
-            v = closed_loop(core, 0.2, extra_delay=1)
+            v = sdc_loop(core, 0.2, extra_delay=1)
         assert not np.all(np.isfinite(v)) or np.nanmax(v) > 2.0
     finally:
         close_backend(core.model)
