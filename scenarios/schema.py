@@ -26,6 +26,7 @@ from pydantic import (
     BaseModel,
     ConfigDict,
     Field,
+    SerializeAsAny,
     ValidationError,
     ValidationInfo,
     field_validator,
@@ -77,7 +78,7 @@ class TopologySpec(Strict):
     external_switches: dict[str, ExternalSwitchSpec] = Field(default_factory=dict, description=(
         "OpenFlow switches of this topology that Mininet does not build: hardware switches (or, emulated, plain "
         "Open vSwitch bridges) the SDN app controls all the same (scenarios/external_spec.py)"))
-    options: dict | BaseModel = Field(default_factory=dict, description=(
+    options: SerializeAsAny[dict | BaseModel] = Field(default_factory=dict, description=(
         "the topology's options (its options_model), given beside name in the file"))
 
     @model_validator(mode="before")

@@ -198,3 +198,17 @@ def test_a_plain_mininet_topo_gets_its_options_from_build(tmp_path):
     sc_path = _scenario(tmp_path, "name: pair\ncustom: plain.py\nhosts: many\n")
     message = _error(sc_path)
     assert f"{sc_path}:6: topology.hosts: Input should be a valid integer" in message, message
+
+
+def test_the_options_are_in_the_dump_and_read_back(tmp_path):
+    """What the calibration cache keys on (the scenario's dump) holds the topology's options, and a
+    dump validates back to the same topology."""
+    from scenarios.calibration_cache import shape_of
+    from scenarios.schema import TopologySpec
+
+    one = load_scenario(_scenario(tmp_path, "name: star\nclusters: 2\n"))
+    two = load_scenario(_scenario(tmp_path, "name: star\nclusters: 3\n"))
+    assert shape_of(one)["topology"] != shape_of(two)["topology"]
+    dump = two.topology.model_dump(mode="json")
+    assert dump["options"] == {"clusters": 3, "turbines": 2, "link_delay_ms": 0.0}
+    assert TopologySpec.model_validate(dump).params() == two.topology.params()
