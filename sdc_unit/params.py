@@ -83,35 +83,35 @@ class ViscParams:
     """
 
     h: float = param(3.0, "s", "paper: 3 s and 5 s cases, 4 s in the 100 MW case", runtime=True)
-    d: float = param(90.0, "p.u.", "assumed: swing-mode damping ratio ~0.7 (docstring)", runtime=True)
-    p_ref: float = 0.0
-    omega_s_measured: bool = False
+    d: float = param(90.0, "p.u.", "assumed: swing-mode damping ratio ~0.7 for x_v + x_grid ~ 0.42 p.u.", runtime=True)
+    p_ref: float = param(0.0, "p.u.", "paper: T_m = 0, no mechanical input")
+    omega_s_measured: bool = param(False, "", "paper: omega_s is a reference")
     v_ref: float = param(1.0, "p.u.", "paper", runtime=True)
     q_ref: float = param(0.0, "p.u.", "paper", runtime=True)
-    e_ref: float = 1.0
+    e_ref: float = param(1.0, "p.u.", "assumed")
     m_q: float = param(0.02, "p.u.", "paper, comparison case", runtime=True)
-    k_pv: float = 0.5
-    k_iv: float = 20.0
-    r_v: float = 0.0
-    l_v: float = 0.2
-    t_vf: float = 1.0 / 300.0
-    freeze_vf_when_limited: bool = False
-    i_max: float = 1.5
-    avr_antiwindup: bool = True
+    k_pv: float = param(0.5, "p.u./p.u.", "assumed, PARAMETERS.md")
+    k_iv: float = param(20.0, "1/s", "assumed, PARAMETERS.md")
+    r_v: float = param(0.0, "p.u.", "D'Arco 2015")
+    l_v: float = param(0.2, "p.u.", "D'Arco 2015")
+    t_vf: float = param(1.0 / 300.0, "s", "Mo 2017")
+    freeze_vf_when_limited: bool = param(False, "", "assumed: freezing latched the sampled controller at its limit (docs/sdc.md)")
+    i_max: float = param(1.5, "p.u.", "paper")
+    avr_antiwindup: bool = param(True, "", "assumed: without it E winds up to ~6 p.u. in a 0.3 p.u. dip")
     supp: bool = param(False, "", "assumed; the paper uses it in the weak-grid cases", runtime=True)
-    k_f1: float = 20.0
-    t_v1: float = 1.0
-    k_f2: float = 0.2
-    t_v2: float = 0.02
-    t_lpf: float = 0.02
-    t_1: float = 0.15
-    t_2: float = 0.05
-    ff_filtered: bool = False
-    k_pc: float = 0.13
-    k_ic: float = 1.53
-    l_f: float = FILTER_X_F_PU
-    r_f: float = FILTER_R_F_PU
-    f_base: float = F_NOMINAL_HZ
+    k_f1: float = param(20.0, "p.u. s", "assumed, PARAMETERS.md K_F")
+    t_v1: float = param(1.0, "s", "assumed")
+    k_f2: float = param(0.2, "p.u. s", "assumed")
+    t_v2: float = param(0.02, "s", "assumed")
+    t_lpf: float = param(0.02, "s", "assumed, PARAMETERS.md")
+    t_1: float = param(0.15, "s", "assumed, PARAMETERS.md")
+    t_2: float = param(0.05, "s", "assumed, PARAMETERS.md")
+    ff_filtered: bool = param(False, "", "assumed")
+    k_pc: float = param(0.13, "p.u.", "assumed: ~510 rad/s, sampled at 0.67 ms (docs/sdc.md)")
+    k_ic: float = param(1.53, "p.u./s", "assumed: zero on the filter pole omega0 r_f/l_f")
+    l_f: float = param(FILTER_X_F_PU, "p.u.", "D'Arco 2015")
+    r_f: float = param(FILTER_R_F_PU, "p.u.", "D'Arco 2015")
+    f_base: float = param(F_NOMINAL_HZ, "Hz", "PARAMETERS.md")
 
     @property
     def omega0(self) -> float:

@@ -79,7 +79,7 @@ def test_every_law_declares_its_parameters_and_its_runtime_ones_are_wire_words(n
             assert decl.unit == vocabulary.PARAM_UNITS[decl.name], f"{name}.{decl.name}: unit differs from the wire's"
             lo, hi = vocabulary.PARAM_LIMITS.get(decl.name, (-np.inf, np.inf))
             assert lo <= float(decl.default) <= hi, f"{name}.{decl.name}: default outside the admitted range"
-    if law.rhs is not None and name != "visc":  # a new law: every parameter with unit (or none) and source
+    if law.rhs is not None:  # every parameter with its source (or the reason for its value)
         assert all(d.source for d in law.declarations()), [d.name for d in law.declarations() if not d.source]
         assert law.out_rows[:7] == ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "omega", "e_mag", "limited")
 
