@@ -168,9 +168,12 @@ class TestbedTopo(Topo):
         self.impaired = {frozenset(link) for link in impaired}
         self.elements: dict[str, tuple[str, str]] = {}  # element host -> (a, b)
         mininet_opts = {key: params.pop(key) for key in ("hopts", "sopts", "lopts") if key in params}
-        if not args:  # (Mininet's --topo name,a,b passes positional arguments: build takes them as they are)
-            params = options_of(type(self)).model_validate(params).model_dump()
-        super().__init__(*args, **mininet_opts, **params)
+        model = options_of(type(self))
+        if len(args) > len(model.model_fields):
+            raise TypeError(f"{type(self).__name__} takes at most {len(model.model_fields)} options "
+                            f"({', '.join(model.model_fields)}), {len(args)} given")
+        positional = dict(zip(model.model_fields, args))  # (mn --topo farm,2,3: in the model's order)
+        super().__init__(**mininet_opts, **model.model_validate({**positional, **params}).model_dump())
 
     def addLink(self, node1, node2, port1=None, port2=None, key=None, **opts):  # noqa: N802 - Mininet's name
         if frozenset((node1, node2)) not in self.impaired:

@@ -212,3 +212,19 @@ def test_the_options_are_in_the_dump_and_read_back(tmp_path):
     dump = two.topology.model_dump(mode="json")
     assert dump["options"] == {"clusters": 3, "turbines": 2, "link_delay_ms": 0.0}
     assert TopologySpec.model_validate(dump).params() == two.topology.params()
+
+
+def test_mininet_topo_arguments_go_through_the_options_model():
+    """``mn --custom topologies/__init__.py --topo farm,2,3`` and ``--topo star,link_delay_ms=0.5``
+    (Mininet's own parser, mininet.util.buildTopo) get the same checks as a scenario."""
+    from mininet.util import buildTopo
+    from pydantic import ValidationError
+
+    farm = describe(buildTopo(topos, "farm,2,3"))
+    assert sorted(n for n, h in farm["hosts"].items() if h["role"] == "turbine")[-1] == "wt2_3"
+    star = describe(buildTopo(topos, "star,clusters=2,link_delay_ms=0.5"))
+    assert {lk["delay_s"] for lk in star["links"]} == {0.0005}
+    with pytest.raises(ValidationError, match="layout"):
+        buildTopo(topos, "farm,layout=ring")
+    with pytest.raises(TypeError, match="at most 4 options"):
+        buildTopo(topos, "farm,1,2,compact,0,9")
