@@ -160,7 +160,7 @@ def _f8(ctx: Context) -> dict[str, Finding]:
 
 
 def _figure(ctx: Context, a: dict, ph_a: dict, none: dict, visc: dict, r0: dict, rv: dict) -> None:
-    fig, axes = figures.new(3)
+    fig, axes = figures.new(4)
     r = ph_a["r"]
     ax = axes[0, 0]
     ax.plot(r["t"], r["v_pcc"], "C0", lw=0.9, label="PCC V1, phasor")
@@ -185,10 +185,19 @@ def _figure(ctx: Context, a: dict, ph_a: dict, none: dict, visc: dict, r0: dict,
         ax.set_ylabel("V_pcc [p.u.]")
         ax.set_xlim(FAULT[0] - 0.05, FAULT[1] + 0.3)
         ax.legend(fontsize=6, ncol=3)
-    axes[2, 0].set_xlabel("t [s] (top: SDViSCs activated at 1 s; below: bolted SLG fault, phase a at the PCC, 1.0–1.2 s)")
+    ax = axes[3, 0]
+    ax.axvspan(*FAULT, **figures.FAULT_SHADE)
+    for j, ph in enumerate("abc"):
+        ax.plot(visc["trace"]["t"], visc["trace"]["i_abc_unit0"][:, j], f"C{j}", lw=0.7,
+                label=f"SDViSC m_q {M_Q[0]:.2f}, converter current through its filter, phase {ph}")
+    ax.set_ylabel("i [p.u. of rated peak]")
+    ax.set_xlim(FAULT[0] - 0.05, FAULT[1] + 0.3)
+    ax.legend(fontsize=6)
+    ax.set_xlabel("t [s] (top: SDViSCs activated at 1 s; below: bolted SLG fault, phase a at the PCC, 1.0–1.2 s; "
+                  "EMT instantaneous currents from the fault's own instant)")
     figures.save(ctx, fig, "emt_f8", "F8 on the EMT backend (dashed) over the phasor plant (solid): the PCC's rise and "
                  "the droop's Q when the SDViSCs start, the PCC's V1 and per-phase RMS under the phase-to-ground fault "
-                 "without and with them.", prefix="Cross-check: ")
+                 "without and with them, one SDViSC's instantaneous phase currents in the fault.", prefix="Cross-check: ")
 
 
 EMT_F8_CLAIMS = (

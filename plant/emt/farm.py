@@ -191,7 +191,8 @@ class EmtFarm:
         self.units: list[ViscConverter | None] = [None] * n_visc
         self.sc = (CondenserEmf(pp.condenser, self.circ.sc_state, self.circ.sc_v_ref, self.phasor_plant.net.k_sc)
                    if with_sc else None)
-        self._last: list[tuple[complex, complex]] = [(0j, 0j)] * n_visc
+        # each SDViSC's latest (terminal voltage, converter current) phasors: the load flow's until the first step
+        self._last = [(self.circ.v0[f"t{j}"], complex(self.circ.i_unit0[j])) for j in range(n_visc)]
         self._opening = False  # the SCR step's breaker: poles open at their current's zeros from the event
         wpp = self.phasor_plant.wpp  # the plant controller (plant/wpp.py) where the phasor plant has one, settled
         self.wpp = copy.deepcopy(wpp) if wpp is not None else None

@@ -145,3 +145,12 @@ def test_sequence_inductance_passes_no_zero_sequence_when_open():
     a = np.exp(2j * np.pi / 3)
     assert np.allclose(lmat @ np.array([1, a * a, a]), 0.1 * np.array([1, a * a, a]))
     assert np.allclose(lmat @ np.ones(3), OPEN_SEQUENCE_X * np.ones(3))
+
+
+def test_sdviscs_activated_before_the_first_step_start_bumpless():
+    """An activation at t = 0 (before any sample) starts the law at the load flow's v and i: no transient."""
+    from plant.emt.farm import EmtFarm  # noqa: PLC0415
+
+    m = EmtFarm(4, (0.03, 0.05, 0.07, 0.10), e_grid=0.98, wpp_enabled=False)
+    r = m.run(0.05, events=[(0.0, EmtFarm.activate)])
+    assert np.max(np.abs(r["i"])) < 0.05  # own base: from P = 0, Q = 0, the droops' Q builds up slowly
