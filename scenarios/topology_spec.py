@@ -42,14 +42,14 @@ class TopologySpec(BaseModel):
     def _options_beside_name(cls, data):
         if not isinstance(data, dict):
             return data
-        own = {"name", "custom", "external_switches", "options"}
-        nested = data.get("options") if isinstance(data.get("options"), dict) else {}  # (a dump read back)
-        return {**{k: v for k, v in data.items() if k in own}, "options": {
-            **nested, **{k: v for k, v in data.items() if k not in own}}}
+        own = {"name", "custom", "external_switches"}
+        nested = data["options"] if isinstance(data.get("options"), dict) else None  # (a dump read back)
+        given = {k: v for k, v in data.items() if k not in own and not (k == "options" and nested is not None)}
+        return {**{k: v for k, v in data.items() if k in own}, "options": {**(nested or {}), **given}}
 
     @model_validator(mode="after")
     def _options_of_the_topology(self, info: ValidationInfo):
-        from topologies.custom import TopologyNotFound, topology_class
+        from topologies.custom import CustomFileError, TopologyNotFound, topology_class
         from topologies.options import options_of
 
         if self.custom is not None:
@@ -58,7 +58,7 @@ class TopologySpec(BaseModel):
         try:
             cls = topology_class(self.name, self.custom)
         except TopologyNotFound as exc:
-            key = "custom" if self.custom is not None and "custom topology file" in str(exc) else "name"
+            key = "custom" if isinstance(exc, CustomFileError) else "name"
             raise ValidationError.from_exception_data("TopologySpec", [InitErrorDetails(
                 type=PydanticCustomError("topology", str(exc)), loc=(key,), input=getattr(self, key))]) from None
         given = self.options if isinstance(self.options, dict) else self.options.model_dump()

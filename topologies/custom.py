@@ -18,13 +18,17 @@ class TopologyNotFound(ValueError):
     """An unknown topology name, or a custom file that cannot be read or defines no topology."""
 
 
+class CustomFileError(TopologyNotFound):
+    """A custom file that cannot be read, fails, or defines no (usable) topology."""
+
+
 def load_custom(path: str | Path) -> dict[str, type[Topo]]:
     """The ``topos`` of the file ``path`` (executed once per version of the file)."""
     path = Path(path)
     try:
         stamp = path.stat().st_mtime_ns
     except OSError as exc:
-        raise TopologyNotFound(f"custom topology file {path}: {exc.strerror}") from exc
+        raise CustomFileError(f"custom topology file {path}: {exc.strerror}") from exc
     return dict(_load(str(path.resolve()), stamp))
 
 
@@ -33,14 +37,14 @@ def _load(path: str, _stamp: int) -> dict[str, type[Topo]]:
     try:
         namespace = runpy.run_path(path, run_name="sdvisc_custom_topology")
     except Exception as exc:  # noqa: BLE001 - whatever the file raises is the user's to see
-        raise TopologyNotFound(f"custom topology file {path} failed: {type(exc).__name__}: {exc}") from exc
+        raise CustomFileError(f"custom topology file {path} failed: {type(exc).__name__}: {exc}") from exc
     found = namespace.get("topos")
     if not isinstance(found, dict) or not found:
-        raise TopologyNotFound(f"custom topology file {path} defines no topology: it must export "
+        raise CustomFileError(f"custom topology file {path} defines no topology: it must export "
                                f"topos = {{'name': TopoClass}} (as for mn --custom)")
     wrong = [name for name, cls in found.items() if not (isinstance(cls, type) and issubclass(cls, Topo))]
     if wrong:
-        raise TopologyNotFound(f"custom topology file {path}: topos[{wrong[0]!r}] is not a Mininet Topo class")
+        raise CustomFileError(f"custom topology file {path}: topos[{wrong[0]!r}] is not a Mininet Topo class")
     return found
 
 
@@ -53,7 +57,7 @@ def known_topologies(custom: str | Path | None = None) -> dict[str, type[Topo]]:
     extra = load_custom(custom)
     hidden = sorted(set(extra) & set(topos))
     if hidden:
-        raise TopologyNotFound(f"custom topology file {custom}: {', '.join(hidden)} would hide the built-in "
+        raise CustomFileError(f"custom topology file {custom}: {', '.join(hidden)} would hide the built-in "
                                f"topolog{'ies' if len(hidden) > 1 else 'y'} of that name: rename it")
     return {**topos, **extra}
 

@@ -67,6 +67,7 @@ def test_an_unknown_name_is_refused_with_the_known_ones(tmp_path):
     ("name: farm\nlayout: ring\n", 5, "topology.layout", "'compact' or 'tower'"),
     ("name: paper\nlayout: tower\n", 5, "topology.layout", "not an option of topology paper (its options: clusters"),
     ("name: star\nclusters: 2\nspeed: 3\n", 6, "topology.speed", "not an option of topology star"),
+    ("name: star\noptions: 3\n", 5, "topology.options", "not an option of topology star"),
 ])
 def test_a_bad_option_names_file_line_and_key(tmp_path, topology, line, key, expect):
     path = _scenario(tmp_path, topology)
