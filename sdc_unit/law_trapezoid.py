@@ -10,7 +10,9 @@ largest rate is below 1; a law whose rate is not — Ts/2 · 1/t_vf = 0.1 at Ts 
 ViSC's voltage filter — would need Newton's method) and the outputs are those of (x_k, m_k): the
 same algebraic loop from measurement to output as the ViSC's hand-derived Tustin engine
 (sdc_unit.engines), for a linear law exactly its Tustin recursion. Rows named ``delta`` are wrapped
-to (−π, π].
+to (−π, π]. Two engines: ``compiled`` (default: the law's rhs and the
+iteration compiled with numba, :mod:`sdc_unit.law_trapezoid_jit`) and ``numpy`` (rows of N
+instances at once; the reference the compiled one is tested against).
 
 The class offers what :class:`sdc_unit.bank.ControllerBank` uses of
 :class:`sdc_unit.discrete.DiscreteVisc`: ``initialise``, ``deactivate``, ``set_params``, ``rp``,
@@ -35,7 +37,8 @@ class TrapezoidControllers:
 
     answers_datagrams = False
 
-    def __init__(self, law: Law, n: int, ts: float, params=None, dtype: str = "float64") -> None:
+    def __init__(self, law: Law, n: int, ts: float, params=None, dtype: str = "float64",
+                 engine: str = "compiled") -> None:
         if law.rhs is None:
             raise ValueError(f"law {law.name!r} has no right-hand side to discretise")
         if str(np.dtype(dtype)) != "float64":
@@ -56,6 +59,13 @@ class TrapezoidControllers:
         self.last_limited = np.zeros(self.n, dtype=bool)
         self.iterations = 0
         """Fixed-point iterations of the last sample (the largest over its instances)."""
+        if engine not in ("compiled", "numpy"):
+            raise ValueError(f"engine {engine!r}: 'compiled' or 'numpy'")
+        self._kernel = None
+        if engine == "compiled":  # numba only where asked for (sdc_unit.law_trapezoid_jit)
+            from sdc_unit.law_trapezoid_jit import advance_columns, compiled_rhs
+
+            self._kernel = (advance_columns, compiled_rhs(law.rhs))
 
     # ------------------------------------------------------------------ the law on columns
     def _rhs(self, x: np.ndarray, m: np.ndarray, cols) -> tuple[np.ndarray, np.ndarray]:
@@ -105,6 +115,15 @@ class TrapezoidControllers:
             self._start(again, self.m[:, again].copy())
 
     def _advance(self, cols: np.ndarray, m: np.ndarray) -> None:
+        if self._kernel is not None:
+            kernel, rhs = self._kernel
+            x, f, out = self.x[:, cols], self.f[:, cols], self.out[:, cols]
+            self.iterations = kernel(rhs, x, f, np.ascontiguousarray(m, dtype=float), self.c[:, cols], self.ts,
+                                     TOLERANCE, MAX_ITERATIONS, self.wrap[0] if self.wrap else -1, out)
+            self.x[:, cols], self.f[:, cols], self.out[:, cols] = x, f, out
+            self.m[:, cols] = m
+            self.fresh[cols] = False
+            return
         x0, f0 = self.x[:, cols], self.f[:, cols]
         half = 0.5 * self.ts
         x = x0 + self.ts * f0  # predictor: forward Euler
@@ -117,7 +136,7 @@ class TrapezoidControllers:
             if done:
                 break
         for r in self.wrap:
-            x[r] = np.angle(np.exp(1j * x[r]))
+            x[r] = np.arctan2(np.sin(x[r]), np.cos(x[r]))
         self.x[:, cols] = x
         self.f[:, cols], self.out[:, cols] = self._rhs(x, m, cols)
         self.m[:, cols] = m
