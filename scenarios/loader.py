@@ -38,9 +38,9 @@ def _clean_loc(loc: tuple) -> tuple:
     return tuple(out)
 
 
-def _message(err: dict, data: dict) -> str:
+def _message(err: dict, data: dict, scenario_dir: Path) -> str:
     if err["type"] == "extra_forbidden" and len(err["loc"]) == 2 and err["loc"][0] == "topology":
-        return _not_an_option(data["topology"])
+        return _not_an_option(data["topology"], scenario_dir)
     if err["type"] == "extra_forbidden":
         return "unknown key (not allowed here)"
     if err["type"] == "finite_number":
@@ -48,16 +48,17 @@ def _message(err: dict, data: dict) -> str:
     return err["msg"]
 
 
-def _not_an_option(section: dict) -> str:
+def _not_an_option(section: dict, scenario_dir: Path) -> str:
     """The message for an unknown key of the topology section: the topology's options."""
     from topologies.custom import TopologyNotFound, topology_class
     from topologies.options import described_options
 
-    name = section.get("name", "paper")
-    if not isinstance(name, str):
+    name, custom = section.get("name", "paper"), section.get("custom")
+    if not isinstance(name, str) or not isinstance(custom, str | None):
         return "not an option of the topology"
     try:
-        return f"not an option of topology {name} (its options: {described_options(topology_class(name, None))})"
+        cls = topology_class(name, None if custom is None else scenario_dir / custom)
+        return f"not an option of topology {name} (its options: {described_options(cls)})"
     except TopologyNotFound:  # a custom one: named in its own error if unknown
         return f"not an option of topology {name}"
 
@@ -106,7 +107,7 @@ def load_scenario(path: str | Path, overrides: list[Override] | tuple = ()) -> S
         scenario = Scenario.model_validate(data, context=context)
     except ValidationError as exc:
         scenario = None
-        problems = [(_clean_loc(tuple(err["loc"])), _message(err, data)) for err in exc.errors()]
+        problems = [(_clean_loc(tuple(err["loc"])), _message(err, data, path.parent)) for err in exc.errors()]
     parts = _Parts.of_scenario(scenario) if scenario is not None else \
         _Parts.of_partial(data, {loc for loc, _ in problems}, context)
     problems += parts.problems()

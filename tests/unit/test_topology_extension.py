@@ -109,6 +109,8 @@ def test_a_custom_file_is_taken_relative_to_the_scenario(tmp_path):
     message = _error(_scenario(tmp_path, "name: line\ncustom: topos/line.py\n",
                                "timeline:\n  - {t: 1.0, do: visc_on, wt: wt1_3}\n"))
     assert "topology.clusters" not in message and "turbine 'wt1_3' is not in topology line" in message, message
+    message = _error(_scenario(tmp_path, "name: line\ncustom: topos/line.py\nlayout: tower\n"))
+    assert "topology.layout: not an option of topology line (its options: clusters (5), turbines (2))" in message
 
 
 @pytest.mark.parametrize(("text", "expect"), [
