@@ -41,7 +41,8 @@ CACHE_OFF = "none"
 MAX_AGE_S = 14 * 24 * 3600.0
 """An entry older than this is measured again: a cached k is only as good as the machine it was
 measured on, and a machine's background load and packages change over weeks."""
-LOOP_PACKAGES = ("plant", "sdc_unit", "sdn_app", "sdvisc", "topologies", "scenarios")
+LOOP_PACKAGES = ("plant", "sdc_unit", "sdn_app", "sdvisc", "topologies", "scenarios", "host_tools")
+"""The code a calibration depends on (host_tools: the CPU split sets the switch's CPU and scheduling)."""
 ROOT = Path(__file__).resolve().parent.parent
 LARGEST_K = float(max(CANDIDATES))
 
