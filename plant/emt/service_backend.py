@@ -53,10 +53,11 @@ STEPS_PER_TS = 13
 OPEN_ENDED_FINAL_S = 3600.0
 """DPsim's final time for a run without a duration, s [the longest RunSeconds of sdvisc.config]."""
 REMOTE_LOOP_MEASURED = (
-    "the SDC's Tustin law in-process (tests/unit/test_emt_service.py): with the paper's one-sample loop (the CTRL "
-    "answering the MEAS sent after step k drives step k+1) v_ref and i_ref are at rest (terminal |V| 1.0011-1.0012) "
-    "and ride through an SLG fault; one sample more (held CTRL) and v_ref diverges within 0.3 s at k_ad 0.2, 0.5 "
-    "and 1.0, i_ref oscillates (|V| up to 2 p.u.); 2026-12-06")
+    "the SDC's Tustin law in-process (plant.emt.service_loop; tests/unit/test_emt_service.py): with the paper's "
+    "one-sample loop (the CTRL answering the MEAS sent after step k drives step k+1) v_ref is at rest and rides "
+    "through an SLG fault; one sample more (every CTRL held a step longer) and it diverges within 0.2 s at k_ad 0.2 "
+    "(an ad-hoc probe: also at 0.5 and 1.0; i_ref at rest with the one-sample loop, oscillating with one more); "
+    "2026-12-06")
 """What the remote loop does on the EMT circuit (docs/plant.md, "EMT through the network")."""
 MIN_PLL_VOLTAGE = 0.05
 """Below this voltage magnitude (p.u.) the PLL's phase error is normalised by it, not by |v| [assumed:
