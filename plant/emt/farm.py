@@ -35,6 +35,12 @@ from sdc_unit.params import ViscParams
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
 LOAD_FLOW_ITERATIONS = 4  # the farm's injection matched to the PCC's current (converges to 1e-9 in 3)
+K_AD_PARALLEL = 0.5
+"""The SDViSC converters' active damping gain here (``TurbineParams.k_ad`` is 0.2) [measured: with 0.2 the
+four average converters in parallel on this circuit have a growing ~125 Hz mode (the PCC's V1 peak to peak
+0.0004 p.u. over 0.5-1 s, 0.0055 over 1-2 s, a loss of stability by 2-2.5 s; 0.4 p.u. with 0), with 0.5
+it is at rest (< 1e-6 p.u.); one unit in the comparison arrangement is at rest with 0.2]. Active damping
+acts on v - its low-pass (w_ad), so the steady state (the droop's Q) does not depend on it."""
 
 
 @dataclass
@@ -182,10 +188,12 @@ class EmtFarm:
 
     def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
                  steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
-                 scr_after: float | None = None, visc_params: ViscParams | None = None, **grid):
+                 scr_after: float | None = None, visc_params: ViscParams | None = None,
+                 k_ad: float = K_AD_PARALLEL, **grid):
         self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params, **grid)
         self.h = TS_S / steps_per_ts
         self.n_sub = steps_per_ts
+        self.k_ad = k_ad
         pp = self.phasor_plant.params
         self.farm = FarmInjection(self.circ.farm_s, self.circ.farm_rating, pp.turbine)
         self.units: list[ViscConverter | None] = [None] * n_visc
@@ -208,6 +216,7 @@ class EmtFarm:
             p = self.circ.visc_params[j]
             x0 = law.initial_state(law.Measurements.from_complex(v, i / self.circ.k_unit), p)
             self.units[j] = ViscConverter(p, x0, self.circ.k_unit, v, self._e[j], tp)
+            self.units[j].k_ad = self.k_ad
 
     def scr_step(self, run=None) -> None:
         """An event: the parallel grid branch's breaker opens, each pole at its current's next zero (the grid

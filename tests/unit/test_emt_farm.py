@@ -154,3 +154,15 @@ def test_sdviscs_activated_before_the_first_step_start_bumpless():
     m = EmtFarm(4, (0.03, 0.05, 0.07, 0.10), e_grid=0.98, wpp_enabled=False)
     r = m.run(0.05, events=[(0.0, EmtFarm.activate)])
     assert np.max(np.abs(r["i"])) < 0.05  # own base: from P = 0, Q = 0, the droops' Q builds up slowly
+
+
+@pytest.mark.slow
+def test_four_sdviscs_stay_at_rest_with_the_farms_active_damping():
+    """With K_AD_PARALLEL the four converters in parallel have no growing mode over 3 s (with the phasor
+    plant's 0.2 the PCC's V1 swings by 0.4 p.u. by then: K_AD_PARALLEL's docstring)."""
+    from plant.emt.farm import EmtFarm  # noqa: PLC0415
+
+    m = EmtFarm(4, (0.03, 0.05, 0.07, 0.10), e_grid=0.98, wpp_enabled=False)
+    r = m.run(3.0, events=[(0.0, EmtFarm.activate)])
+    v1 = np.abs(frame.positive_sequence(r["v_pcc"], r["spc"]))
+    assert np.ptp(v1[r["t"] > 2.0]) < 1e-3
