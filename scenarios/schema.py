@@ -109,7 +109,7 @@ class SdcSpec(SdcOptions):
         law = LAWS.get(self.law)
         if law is None:
             raise ValueError(f"sdc.law: unknown law {self.law!r}; known: {', '.join(LAWS)}")
-        if law.bank is not None and self.method not in (*law.methods, "hold"):  # hold: the law hold's former spelling
+        if law.methods and self.method not in (*law.methods, "hold"):  # hold: the law hold's former spelling
             raise ValueError(f"sdc.method: {self.method!r} is not a method of the law {self.law!r} "
                              f"({', '.join(law.methods)})")
         return self

@@ -21,7 +21,7 @@ from sdc_unit.answer import FLAG_BACKUP, SENT, ctrl_bytes, header_time
 from sdc_unit.blocks import METHODS as VISC_METHODS
 from sdc_unit.laws import get_law
 from sdvisc import wire
-from sdvisc.vocabulary import CTRL_OUTPUTS, FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS, params_from_mask
+from sdvisc.vocabulary import CTRL_OUTPUTS, MEAS_FIELDS, params_from_mask
 
 METHODS = VISC_METHODS + ("hold",)
 OUT_KEYS = CTRL_OUTPUTS + ("limited",)
@@ -32,21 +32,20 @@ class ControllerBank:
     """``capacity`` controller slots stepped in one vectorised call."""
 
     def __init__(self, capacity: int, step_s: float, method: str = "tustin", dtype: str = "float64",
-                 r_f: float = FILTER_R_F_PU, x_f: float = FILTER_X_F_PU, law: str = "visc") -> None:
+                 law: str = "visc") -> None:
         if method == "hold":
             law = "hold"
         self.law = get_law(law)
-        if self.law.bank is not None and method not in self.law.methods:
+        if self.law.methods and method not in self.law.methods:
             raise ValueError(f"SDC law {law!r}: method must be one of {self.law.methods}, got {method!r}")
         self.capacity = capacity
         self.method = method
         self.started = np.zeros(capacity, dtype=bool)
         self.initialised = np.zeros(capacity, dtype=bool)
         self.pending_params: dict[int, dict] = {}
-        self.z_f = complex(r_f, x_f)
-        self.hold_v = np.zeros(capacity, dtype=complex)
-        self.visc = None if self.law.bank is None else self.law.bank(capacity, step_s, method, dtype)
-        self.compiled_answers = self.visc is not None and self.visc.answers_datagrams
+        self.visc = self.law.bank(capacity, step_s, method, dtype)
+        """The law's controllers (DiscreteVisc for the ViSC; the interface: law_trapezoid.TrapezoidControllers)."""
+        self.compiled_answers = self.visc.answers_datagrams
         """True where :meth:`answer_datagrams` is available (the compiled Tustin engine)."""
         self._ctrl_size = {True: ctrl_bytes(True), False: ctrl_bytes(False)}
         self._ctrl_out = np.empty(capacity * ctrl_bytes(True), dtype=np.uint8)  # answer_datagrams' (grown when needed)
@@ -77,12 +76,11 @@ class ControllerBank:
     def stop(self, slot: int) -> None:
         self.started[slot] = False
         self.initialised[slot] = False
-        if self.visc is not None:
-            self.visc.deactivate([slot])
+        self.visc.deactivate([slot])
 
     def set_params(self, slot: int, params: dict) -> None:
         changes = self._own(params_from_mask(params))
-        if self.visc is not None and changes and self.initialised[slot]:
+        if changes and self.initialised[slot]:
             self.visc.set_params(slot, **changes)
         elif changes:
             self.pending_params.setdefault(slot, {}).update(changes)
@@ -96,8 +94,6 @@ class ControllerBank:
     def runtime_params(self, slot: int) -> dict[str, float]:
         """The run-time parameters (h, d, m_q, v_ref, q_ref, supp) ``slot``'s controller steps with now
         ({} for "hold"); a change made before its first measurement is in ``pending_params`` until then."""
-        if self.visc is None:
-            return {}
         return {name: float(values[slot]) for name, values in self.visc.rp.items()}
 
     def take_over(self, slot: int) -> None:
@@ -109,13 +105,9 @@ class ControllerBank:
             if self.initialised[slot]:
                 continue
             one = {k: meas[k][j : j + 1] for k in MEAS_FIELDS}
-            v = one["v_d"][0] + 1j * one["v_q"][0]
-            i = one["i_d"][0] + 1j * one["i_q"][0]
-            self.hold_v[slot] = v + self.z_f * i
-            if self.visc is not None:
-                self.visc.initialise([slot], SimpleNamespace(**{k: float(a[0]) for k, a in one.items()}))
-                if self.pending_params.get(slot):
-                    self.visc.set_params(slot, **self.pending_params.pop(slot))
+            self.visc.initialise([slot], SimpleNamespace(**{k: float(a[0]) for k, a in one.items()}))
+            if self.pending_params.get(slot):
+                self.visc.set_params(slot, **self.pending_params.pop(slot))
             self.initialised[slot] = True
 
     def track(self, slots: np.ndarray, meas: dict[str, np.ndarray]) -> None:
@@ -125,7 +117,7 @@ class ControllerBank:
         fresh = finite & ~self.initialised[slots]
         self._initialise(slots[fresh], {k: v[fresh] for k, v in meas.items()})
         follow = finite & ~fresh
-        if self.visc is None or not follow.any():
+        if not follow.any():
             return
         full = {k: np.zeros(self.capacity) for k in MEAS_FIELDS}
         for k in MEAS_FIELDS:
@@ -148,14 +140,6 @@ class ControllerBank:
         if not self.initialised[used].all():  # only a fresh slot needs the (per-slot) initialisation
             named = dict(zip(MEAS_FIELDS, rows)) if isinstance(meas, np.ndarray) else meas
             self._initialise(used, {k: v[usable] for k, v in named.items()})
-        if self.visc is None:
-            v = self.hold_v[slots]
-            out = {k: np.zeros(len(slots)) for k in OUT_KEYS}
-            out["v_ref_d"], out["v_ref_q"] = v.real, v.imag
-            out["e_mag"] = np.abs(v)
-            out["omega"] = np.ones(len(slots))
-            out["limited"] = np.zeros(len(slots), dtype=bool)
-            return out, usable
         return self._step_visc(slots, rows, usable, used, all_usable)
 
     def answer_datagrams(self, slots: list[int], datagrams: list[bytes], values: list[tuple], ctrl_seq: np.ndarray,

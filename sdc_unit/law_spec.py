@@ -76,8 +76,8 @@ class Law:
     initial_state: ``(meas rows, params) -> x``: the state at the operating point the measurements
         show (bumpless start: the first output is the converter voltage the turbine applies).
     bank: ``(n, step_s, method, dtype) -> controllers`` for the SDC's ControllerBank (the interface of
-        :class:`sdc_unit.discrete.DiscreteVisc` it uses), or None for a law the bank answers itself.
-    methods: the discretisations ``bank`` accepts.
+        :class:`sdc_unit.discrete.DiscreteVisc` it uses, listed in :mod:`sdc_unit.law_trapezoid`).
+    methods: the discretisations ``bank`` accepts (empty: any, nothing to discretise).
     """
 
     name: str

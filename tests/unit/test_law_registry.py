@@ -142,8 +142,23 @@ def test_the_visc_bank_is_the_hand_derived_engine():
     """law="visc" (the default) builds the very DiscreteVisc of before: same engine, same bytes."""
     bank = ControllerBank(3, 0.67e-3)
     assert isinstance(bank.visc, DiscreteVisc) and bank.compiled_answers
-    assert ControllerBank(3, 0.67e-3, method="hold").visc is None
-    assert ControllerBank(3, 0.67e-3, law="hold").law.name == "hold"
+    assert ControllerBank(3, 0.67e-3, method="hold").law.name == "hold"  # the former spelling
+
+
+def test_the_hold_law_holds_the_first_operating_points_converter_voltage():
+    """hold, through the bank as any law: the answer is v + (r_f + j x_f) i of the first sample,
+    whatever comes after; speed 1, no limiter."""
+    bank = ControllerBank(3, 0.67e-3, law="hold")
+    bank.start(2, {"mask": 0})
+    first = np.array([[OP[f]] for f in vocabulary.MEAS_FIELDS])
+    later = np.array([[OP[f] * 0.5] for f in vocabulary.MEAS_FIELDS])
+    v, i = OP["v_d"] + 1j * OP["v_q"], OP["i_d"] + 1j * OP["i_q"]
+    held = v + complex(vocabulary.FILTER_R_F_PU, vocabulary.FILTER_X_F_PU) * i
+    for rows in (first, later):
+        out, valid = bank.step(np.array([2]), rows)
+        assert valid.all() and out["v_ref_d"][0] == held.real and out["v_ref_q"][0] == held.imag
+        assert out["e_mag"][0] == abs(held) and out["omega"][0] == 1.0 and not out["limited"][0]
+    assert bank.runtime_params(2) == {}
 
 
 @pytest.mark.parametrize("name", [n for n, law in LAWS.items() if law.rhs is not None])
