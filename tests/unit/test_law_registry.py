@@ -178,3 +178,51 @@ def test_the_compiled_trapezoid_is_the_numpy_one(name):
         (_, a, _), (_, b, _) = (c.advance_slots(np.array([0, 1]), rows) for c in runs.values())
         gap = max(gap, float(np.max(np.abs(a - b))))
     assert gap < 1e-9
+
+
+def _fixed_source_rhs(x, m, c, dx, out):
+    """A made-up law for the test: a voltage source at nominal frequency, E = v_ref behind l_v."""
+    i_d = (c[0] * np.sin(x[0]) - m[1]) / c[1]  # i = (E e^{jδ} − v)/(j l_v), with m[0], m[1] = v_d, v_q
+    i_q = -(c[0] * np.cos(x[0]) - m[0]) / c[1]
+    out[0] = c[0] * np.cos(x[0])
+    out[1] = c[0] * np.sin(x[0])
+    out[2] = i_d
+    out[3] = i_q
+    out[4] = 1.0 + 0.0 * x[0]
+    out[5] = c[0] + 0.0 * x[0]
+    out[6] = 0.0 * x[0]
+    dx[0] = 0.0 * x[0]
+
+
+def test_a_new_law_is_its_module_and_a_registry_line(monkeypatch):
+    """A law defined here and registered with one line (LAWS["fixed"] = ...) runs in the SDC's bank,
+    takes a REQUEST's v_ref and is accepted by the scenario schema: nothing else to touch."""
+    from dataclasses import dataclass
+
+    from scenarios.schema import SdcSpec
+    from sdc_unit.law_spec import Law, param
+
+    @dataclass(frozen=True)
+    class FixedParams:
+        v_ref: float = param(1.0, "p.u.", "nominal voltage", runtime=True)
+        l_v: float = param(0.2, "p.u.", "the ViSC's virtual inductance [D'Arco 2015]")
+
+    def initial(m, p):
+        return np.arctan2(m[1] + p.l_v * m[2], m[0] - p.l_v * m[3])[None, :]  # angle of v + j l_v i
+
+    def bank(n, step_s, method, dtype):
+        return TrapezoidControllers(LAWS["fixed"], n, step_s, engine="numpy")
+
+    monkeypatch.setitem(LAWS, "fixed", Law("fixed", FixedParams, ("delta",), rhs=_fixed_source_rhs,
+                                            param_row_names=("v_ref", "l_v"), initial_state=initial, bank=bank,
+                                            methods=("tustin",)))
+    assert SdcSpec(law="fixed").law == "fixed"
+    test_every_law_declares_its_parameters_and_its_runtime_ones_are_wire_words("fixed")
+    bank_ = ControllerBank(2, 0.67e-3, law="fixed")
+    bank_.start(0, {"mask": 0})
+    rows = np.array([[OP[f]] for f in vocabulary.MEAS_FIELDS])
+    out, valid = bank_.step(np.array([0]), rows)
+    assert valid.all() and out["omega"][0] == 1.0 and abs(out["e_mag"][0] - 1.0) < 1e-12
+    bank_.set_params(0, {**vocabulary.BLANK_REQUEST_PARAMS, "mask": int(wire.ParamMask.V_REF), "v_ref": 1.05})
+    out, _ = bank_.step(np.array([0]), rows)
+    assert abs(out["e_mag"][0] - 1.05) < 1e-12 and bank_.runtime_params(0) == {"v_ref": 1.05}
