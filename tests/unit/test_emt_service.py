@@ -125,3 +125,14 @@ def test_one_sample_more_in_the_v_ref_loop_diverges_on_the_emt_circuit():
         assert not np.all(np.isfinite(v)) or np.nanmax(v) > 2.0
     finally:
         close_backend(core.model)
+
+
+def test_the_pll_follows_a_frequency_offset_of_the_measured_phasor():
+    """A phasor turning at +0.5 Hz in the common frame is a 50.5 Hz voltage: the PLL's speed settles at
+    1.01 p.u. (within 1e-4 after 2 s; its bandwidth ~ OMEGA0 kp = 79 rad/s, integral 10/s)."""
+    from plant.emt.service_backend import Pll
+
+    pll = Pll(0.25, 10.0, 1.0 + 0j)
+    for k in range(int(2.0 / TS)):
+        omega = pll.update(np.exp(2j * np.pi * 0.5 * k * TS), TS)
+    assert omega == pytest.approx(1.01, abs=1e-4)
