@@ -136,3 +136,17 @@ def test_the_pll_follows_a_frequency_offset_of_the_measured_phasor():
     for k in range(int(2.0 / TS)):
         omega = pll.update(np.exp(2j * np.pi * 0.5 * k * TS), TS)
     assert omega == pytest.approx(1.01, abs=1e-4)
+
+
+def test_plant_emt_from_the_command_line_is_checked_as_the_scenarios_key():
+    from pathlib import Path
+
+    from scenarios.loader import Override, ScenarioError, load_scenario
+
+    root = Path(__file__).resolve().parents[2]
+    emt = Override("--plant", "emt", ("plant", "model"), "emt")
+    assert load_scenario(root / "scenarios" / "paper" / "f6_slg_fault_current.yaml", [emt]).plant.model == "emt"
+    with pytest.raises(ScenarioError, match=r"--plant emt: plant.model: .*onshore_units: 1"):
+        load_scenario(root / "scenarios" / "smoke.yaml", [emt])  # no onshore unit: nothing to drive
+    with pytest.raises(ScenarioError, match=r"--plant emd: plant.model: Input should be"):
+        load_scenario(root / "scenarios" / "smoke.yaml", [Override("--plant", "emd", ("plant", "model"), "emd")])
