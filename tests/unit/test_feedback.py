@@ -302,7 +302,7 @@ def test_session_options_of_sdvisc_run():
     from scenarios.loader import ScenarioError, load_scenario
 
     def opts(**kw):
-        return Namespace(**{"duration": None, "cli": False, "cli_duration": None, "web": None, "time_scale": None,
+        return Namespace(**{"duration": None, "cli": False, "cli_duration": None, "web": None, "time_scale": None, "plant": None,
                             "switch_ports": None, "switch_links": None, "cpu_split": None, "pcap": False, **kw})
 
     def load(o):

@@ -133,6 +133,7 @@ VALUES = {  # key path -> (value set in the file, value the process config must 
     ("sdn", "managers"): ([{"name": "duplication", "turbines": ["wt1_2"]}],
                           [ManagerChoice(name="duplication", turbines=["wt1_2"])]),
     ("sdn", "path_policy"): ("delay", "delay"),
+    ("sdc", "law"): ("droop", "droop"),
     ("topology", "onshore_units"): (1, 1),
     ("timeline",): ([{"t": 1.0, "do": "scr", "value": 2.5}], [2.5]),
 }
