@@ -108,3 +108,56 @@ def test_the_pilot_steps_at_the_plant_services_scheduling_and_gives_it_back(monk
     assert state == {"policy": os.SCHED_OTHER, "nice": 0}  # back, also when a trial raised
     with plant_scheduling(False, raise_to=to_fifo) as got:  # a plant without realtime_priority: untouched
         assert got == "default" and state["policy"] == os.SCHED_OTHER
+
+
+def test_the_pilots_plant_side_measures_every_answer_of_the_real_sdc_over_udp(tmp_path):
+    """The pilot's paced steps (scenarios/calibration_probe.py) send one MEAS per turbine from its own
+    socket, the real SDC pilot answers each, and every answer time is measured from its step's start
+    (the model: the minimal plant, two turbines in remote mode)."""
+    import json
+    import socket
+    import subprocess
+    import sys
+    import time
+
+    from plant.minimal import MinimalPlant
+    from scenarios.calibration_probe import PilotSetup, probe
+    from sdvisc import rxstamp, wire
+    from sdvisc.config import SdcConfig, write_config
+
+    ts = 0.67e-3
+    cfg = SdcConfig(sdc_id=1, step_s=ts, controller_vip="127.0.10.254", capacity=4, bind_ip="127.0.10.1",
+                    realtime_priority=False, out_dir=str(tmp_path))
+    ready = tmp_path / "ready.json"
+    pilot = subprocess.Popen([sys.executable, "-m", "sdc_unit.pilot", "--config", str(write_config(cfg, tmp_path / "s.json")),
+                              "--serve", "101,102", "--ready", str(ready)])
+    turbines = {"wt1_1": "127.0.10.2", "wt1_2": "127.0.10.3"}
+    setup = PilotSetup("127.0.10.1", list(turbines), {"wt1_1": 101, "wt1_2": 102}, step_s=ts)
+    try:
+        deadline = time.time() + 60
+        while not ready.exists():
+            assert pilot.poll() is None and time.time() < deadline, "the pilot did not start"
+            time.sleep(0.05)
+        for wt, ip in turbines.items():
+            sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            sock.bind((ip, wire.PORT_TURBINE))
+            sock.setblocking(False)
+            rxstamp.enable(sock)
+            setup.socks[wt] = sock
+        setup.model, setup.indices = MinimalPlant(2, ts), [0, 1]
+        for i in setup.indices:
+            setup.model.set_mode(i, "remote")
+        rtt, back, answer = ({wt: [] for wt in turbines} for _ in range(3))
+        period = 16 * ts  # k = 16 on loopback: every answer well within the sample
+        plant_s, lateness = probe(setup, period, 50, (rtt, back, answer))
+    finally:
+        for sock in setup.socks.values():
+            sock.close()
+        pilot.terminate()
+        pilot.wait(timeout=20)
+    assert len(plant_s) == len(lateness) == 50 and setup.seq == 50
+    assert all(len(answer[wt]) == 50 and len(rtt[wt]) == 50 for wt in turbines)  # every MEAS answered, once
+    assert all(a >= r > 0 for wt in turbines for a, r in zip(answer[wt], rtt[wt]))  # the step's work comes first
+    near = closeness(answer, 50, period, 0.75 * period, lateness, max(max(v) for v in answer.values()) * 1e-3)
+    assert near["within_one_sample"]["worst"] is not None
+    assert json.loads(ready.read_text())["served"] == {"wt1_1": 50, "wt1_2": 50}
