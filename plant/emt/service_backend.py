@@ -19,8 +19,12 @@ offline) with its 40 MVA SDViSC's converter driven by the SDC's CTRL.
   the active damping's low-pass of the terminal voltage where the phasor plant feeds v forward); ``v_ref``
   (the paper scenarios' setting): the SDC's converter voltage reference (the inner loop closed over the
   network). Either goes through the converter's active damping
-  (:meth:`plant.emt.devices.ViscConverter.converter_voltage`). Measured (:data:`REMOTE_LOOP_MEASURED`):
-  both are at rest with the paper's one-sample loop and diverge with one sample more. Without a CTRL for ``remote_loss_fallback_s``
+  (:meth:`plant.emt.devices.ViscConverter.converter_voltage`) and, at every circuit step, the
+  converter's local current limit (``TurbineParams.i_max_local``, the phasor plant's
+  :func:`plant.turbine_laws.remote_current_limit`: the current the voltage would drive over the step,
+  clamped). Measured (:data:`REMOTE_LOOP_MEASURED`): at rest with the paper's one-sample loop; one
+  sample more makes the loop grow, the limit bounds it, and it is at rest again once the one-sample loop
+  resumes. Without a CTRL for ``remote_loss_fallback_s``
   the unit falls back to its own control (counted in ``fallbacks``).
 * Outside ``remote`` mode the unit runs the ViSC law itself at every circuit step (the offline EMT
   run's HD ViSC, :class:`~plant.emt.devices.ViscConverter`): the arrangement's unit has no
@@ -46,6 +50,7 @@ from plant.emt import arrangement, frame
 from plant.emt.devices import FarmInjection, ViscConverter
 from plant.emt.dpsim_env import dpsim
 from plant.emt.operating_point import from_phasor_plant
+from plant.turbine_laws import remote_current_limit
 from sdvisc.vocabulary import F_NOMINAL_HZ, OMEGA0
 
 STEPS_PER_TS = 13
@@ -55,9 +60,9 @@ OPEN_ENDED_FINAL_S = 3600.0
 REMOTE_LOOP_MEASURED = (
     "the SDC's Tustin law in-process (plant.emt.service_loop; tests/unit/test_emt_service.py): with the paper's "
     "one-sample loop (the CTRL answering the MEAS sent after step k drives step k+1) v_ref is at rest and rides "
-    "through an SLG fault; one sample more (every CTRL held a step longer) and it diverges within 0.2 s at k_ad 0.2 "
-    "(an ad-hoc probe: also at 0.5 and 1.0; i_ref at rest with the one-sample loop, oscillating with one more); "
-    "2026-12-06")
+    "through an SLG fault; 0.1 s of CTRLs a sample late (a stall's catch-up) and the loop grows: past 100 p.u. "
+    "without the local current limit (the SDC then rejects the MEAS as out of range), bounded below 5 p.u. with it "
+    "and at rest again after; 2026-12-06")
 """What the remote loop does on the EMT circuit (docs/plant.md, "EMT through the network")."""
 MIN_PLL_VOLTAGE = 0.05
 """Below this voltage magnitude (p.u.) the PLL's phase error is normalised by it, not by |v| [assumed:
@@ -96,7 +101,7 @@ class EmtServiceBackend:
     def __init__(self, n_farm: int = 50, step_s: float = 0.67e-3, *, grid: dict | None = None,
                  steps_per_ts: int = STEPS_PER_TS, remote_loss_fallback_s: float = 0.1,
                  duration_s: float | None = None, k_ad: float | None = None, fault_kind: str = "slg",
-                 remote_apply: str = "v_ref") -> None:
+                 remote_apply: str = "v_ref", i_max_local: float | None = None) -> None:
         if remote_apply not in ("i_ref", "v_ref"):
             raise ValueError(f"remote_apply must be 'i_ref' or 'v_ref', not {remote_apply!r}")
         self.remote_apply = remote_apply
@@ -127,6 +132,7 @@ class EmtServiceBackend:
         self.remote_i = op.i_device / op.k_device
         self.z_filter = complex(turbine.rf, turbine.lf)
         self.k_pc = turbine.kpc
+        self.i_max_local = turbine.i_max_local if i_max_local is None else float(i_max_local)
         self.last_rx_k = 0
         self.fallbacks = np.zeros(self.n, dtype=np.int64)
         self.trips = np.zeros(self.n, dtype=np.int64)  # no over-current trip in the average model: stays 0
@@ -227,6 +233,9 @@ class EmtServiceBackend:
         ring, spc, at = self._pcc_ring, self.spc, self._ring_at
         t = self.k * self.step_s
         current_loop = remote and self.remote_apply == "i_ref"
+        i_lim = self.i_max_local
+        limit_on = remote and i_lim > 0.0
+        a_lim = h * OMEGA0 / self.z_filter.imag
         if remote:
             visc.v_ref = self.remote_v
         i_ref, z_f, k_pc, k_unit = self.remote_i, self.z_filter, self.k_pc, self.op.k_device
@@ -236,7 +245,12 @@ class EmtServiceBackend:
             if current_loop:  # the converter's own current loop on the held i_ref, its voltage feed-forward
                 # the active damping's low-pass phi (fed forward raw, v_t rang at ~6 p.u. on the filter's LC)
                 visc.v_ref = visc.phi + z_f * i_ref + k_pc * (i_ref - i_unit)
-            conv_set(to_abc(visc.converter_voltage(v_t, h)))
+            v_conv = visc.converter_voltage(v_t, h)
+            if limit_on:  # the converter's local current limit (the phasor plant's, at the circuit step)
+                re, im, _ = remote_current_limit(v_conv.real, v_conv.imag, v_t.real, v_t.imag, i_unit.real,
+                                                 i_unit.imag, z_f.real, z_f.imag, a_lim, i_lim)
+                v_conv = complex(re, im)
+            conv_set(to_abc(v_conv))
             sim.next()
             tj = t + j * h
             pcc = np.ravel(v_pcc_get())
@@ -244,7 +258,7 @@ class EmtServiceBackend:
             at = (at + 1) % spc
             vt = np.ravel(v_t_get())
             v_t = frame.park_sample(vt[0], vt[1], vt[2], tj)
-            if not remote or current_loop:
+            if not remote or current_loop or limit_on:
                 ia = np.ravel(i_get())  # i_intf of [a, b] flows b -> a: out of the source is its negative
                 i_net = -frame.park_sample(ia[0], ia[1], ia[2], tj)
                 i_unit = i_net / k_unit

@@ -51,9 +51,11 @@ def start_stream(core: PlantCore, name: str = "wt6_1") -> None:
     core.receive(ep, request(wire.Command.STREAM_START, WIDS[name]), (VIP, wire.PORT_CONTROLLER), core.k * core.step_s)
 
 
-def sdc_loop(core: PlantCore, seconds: float, extra_delay: int = 0, fault: dict | None = None) -> np.ndarray:
-    """Run ``seconds`` with the SDC's law answering the first streaming endpoint; ``fault``: step index ->
-    on/off. Returns |v| at the unit's terminal after each step."""
+def sdc_loop(core: PlantCore, seconds: float, extra_delay: int = 0, fault: dict | None = None,
+             late_steps: range = range(0)) -> np.ndarray:
+    """Run ``seconds`` with the SDC's law answering the first streaming endpoint, each CTRL received
+    ``extra_delay`` steps late, one more during ``late_steps`` (step indices: a stall); ``fault``: step
+    index -> on/off. Returns |v| at the unit's terminal after each step."""
     ep = core.streaming[0]
     ts = core.step_s
     law = None
@@ -62,7 +64,7 @@ def sdc_loop(core: PlantCore, seconds: float, extra_delay: int = 0, fault: dict 
         now = core.k * ts
         if fault is not None and k in fault:
             core.apply_event({"type": "fault", "on": fault[k]})
-        if len(pending) > extra_delay:
+        while len(pending) > extra_delay + (k in late_steps):  # after a stall, the held ones at once
             core.receive(ep, pending.pop(0), (SDC, wire.PORT_SDC), now)
         for _, data, _addr in core.step(now + ts):
             msg = wire.decode(data, header=True)

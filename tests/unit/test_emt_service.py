@@ -114,15 +114,24 @@ def test_the_service_core_closes_the_sdc_loop_on_the_emt_plant_and_rides_through
         close_backend(core.model)
 
 
-@pytest.mark.slow
-def test_one_sample_more_in_the_v_ref_loop_diverges_on_the_emt_circuit():
-    """plant.emt.service_backend.REMOTE_LOOP_MEASURED: why a network run must keep the one-sample loop."""
+@pytest.mark.parametrize("i_max_local", [0.0, 1.5], ids=["no_local_limit", "local_limit"])
+def test_a_stall_holding_every_ctrl_a_step_longer_is_ridden_out_only_with_the_local_current_limit(i_max_local):
+    """plant.emt.service_backend.REMOTE_LOOP_MEASURED: 0.1 s of CTRLs one sample late (a stall's catch-up)
+    makes the v_ref loop grow on the EMT circuit; the converter's local current limit (TurbineParams.i_max_local,
+    the phasor plant's) bounds it and the loop is back at rest once the one-sample loop resumes; without the
+    limit it runs away (> 100 p.u., what the SDC rejects as out of range)."""
     core = emt_core()
+    core.model.i_max_local = i_max_local
     try:
         start_stream(core)
+        stall = range(int(0.1 / TS), int(0.2 / TS))
         with np.errstate(all="ignore"):
-            v = sdc_loop(core, 0.2, extra_delay=1)
-        assert not np.all(np.isfinite(v)) or np.nanmax(v) > 2.0
+            v = sdc_loop(core, 0.5, late_steps=stall)
+        before = v[stall.start - 1]
+        if i_max_local:
+            assert np.nanmax(v) < 5.0 and abs(v[-1] / before - 1.0) < 0.01
+        else:
+            assert not np.all(np.isfinite(v)) or np.nanmax(v) > 100.0
     finally:
         close_backend(core.model)
 
