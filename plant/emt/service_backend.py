@@ -243,10 +243,12 @@ class EmtServiceBackend:
         a_prev = None
         for j in range(1, self.n_sub + 1):
             if current_loop:  # the converter's own current loop on the held i_ref, its voltage feed-forward
-                # the active damping's low-pass phi (fed forward raw, v_t rang at ~6 p.u. on the filter's LC)
+                # the active damping's low-pass phi (v_t fed forward raw rang on the filter's LC, an ad-hoc probe)
                 visc.v_ref = visc.phi + z_f * i_ref + k_pc * (i_ref - i_unit)
             v_conv = visc.converter_voltage(v_t, h)
-            if limit_on:  # the converter's local current limit (the phasor plant's, at the circuit step)
+            # the converter's local current limit (the phasor plant's, at the circuit step); its prediction
+            # of the current over the step first, to skip the call while within the limit (the usual case)
+            if limit_on and abs(i_unit + a_lim * (v_conv - v_t - z_f * i_unit)) > i_lim:
                 re, im, _ = remote_current_limit(v_conv.real, v_conv.imag, v_t.real, v_t.imag, i_unit.real,
                                                  i_unit.imag, z_f.real, z_f.imag, a_lim, i_lim)
                 v_conv = complex(re, im)
