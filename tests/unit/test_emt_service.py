@@ -159,3 +159,17 @@ def test_plant_emt_from_the_command_line_is_checked_as_the_scenarios_key():
         load_scenario(root / "scenarios" / "smoke.yaml", [emt])  # no onshore unit: nothing to drive
     with pytest.raises(ScenarioError, match=r"--plant emd: plant.model: Input should be"):
         load_scenario(root / "scenarios" / "smoke.yaml", [Override("--plant", "emd", ("plant", "model"), "emd")])
+
+
+def test_remote_apply_i_ref_tracks_the_sdcs_current_reference_at_rest():
+    """``remote_apply: i_ref``: the converter's own current loop on the SDC's limited current reference
+    (the phasor plant's law, the active damping's low-pass fed forward) holds the unit at rest."""
+    core = emt_core(remote_apply="i_ref")
+    try:
+        start_stream(core)
+        v = sdc_loop(core, 0.3)
+        settled = v[-int(0.05 / TS):]
+        assert np.ptp(settled) < 2e-3 and abs(settled[-1] / abs(core.model.op.v_terminal) - 1.0) < 0.015
+        assert core.model.fallbacks[core.model.unit] == 0
+    finally:
+        close_backend(core.model)
