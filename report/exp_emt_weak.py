@@ -38,6 +38,7 @@ from report.weak_cases import (
     visc_params,
 )
 
+FARM_MODEL = "gfl"  # the rest of the farm: one grid-following converter with the phasor turbine's controls
 SCR_YES, SCR_PARTLY = 0.1, 0.3  # |EMT - phasor| boundary, SCR: yes (issue 40's goal), partly
 CASES = {"none": {"n_visc": 0}, "SC": {"n_visc": 0, "with_sc": True},
          NET_CASE: {"n_visc": 4, "visc_params": visc_params(False)}}
@@ -49,7 +50,7 @@ QUICK_XTOL = 0.25  # SCR: the EMT searches' tolerance under --quick (6 runs each
 def emt_scr_run(case: dict, scr: float, t_end: float) -> dict:
     """One EMT run of ``case`` (EmtFarm keys) with the SCR step 7.14 → ``scr`` at 1 s; the SDViSCs active from
     the start (as the phasor plant's cases)."""
-    m = EmtFarm(scr_after=scr, **case)
+    m = EmtFarm(scr_after=scr, farm_model=FARM_MODEL, **case)
     events = [(T_EVENT, EmtFarm.scr_step)] + ([(0.0, EmtFarm.activate)] if case.get("n_visc") else [])
     with np.errstate(all="ignore"):
         r = m.run(t_end, events=events)

@@ -29,11 +29,14 @@ from plant.condenser import Condenser
 from plant.emt import arrangement, frame, netlist
 from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
 from plant.emt.dpsim_env import dpsim, native_stdout_silenced
+from plant.emt.gfl_farm import GflAggregate
 from plant.emt.model import STEPS_PER_TS, TS_S
 from sdc_unit import law
 from sdc_unit.params import ViscParams
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
+FARM_MODELS = ("injection", "gfl")
+CF_AGG_SCALE = 1.0
 LOAD_FLOW_ITERATIONS = 4  # the farm's injection matched to the PCC's current (converges to 1e-9 in 3)
 K_AD_PARALLEL = 0.5
 """The SDViSC converters' active damping gain here (``TurbineParams.k_ad`` is 0.2) [measured: with 0.2 the
@@ -56,6 +59,9 @@ class FarmCircuit:
     farm_rating: float
     sc_state: np.ndarray | None = None
     sc_v_ref: float = 1.0
+    farm_model: str = "injection"
+    farm_i0: complex = 0j  # the aggregated farm's current at the start (network base)
+    k_agg: float = 0.0  # the aggregated turbines' rating on the network base ("gfl")
 
 
 def phasor_farm_plant(n_visc: int, m_q=None, with_sc: bool = False, visc_params: ViscParams | None = None,
@@ -78,11 +84,16 @@ def phasor_farm_plant(n_visc: int, m_q=None, with_sc: bool = False, visc_params:
 
 def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = arrangement.R_FAULT,
                scr_after: float | None = None, visc_params: ViscParams | None = None,
-               **grid) -> tuple[FarmCircuit, object]:
+               farm_model: str = "injection", **grid) -> tuple[FarmCircuit, object]:
     """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from); ``r_fault``:
     the SLG fault's resistance when closed (p.u., network base); ``scr_after``: the grid's Thevenin
     impedance is that of this SCR with a parallel branch (the same X/R) that makes it the phasor plant's
-    SCR until its breaker opens (:meth:`EmtFarm.scr_step`)."""
+    SCR until its breaker opens (:meth:`EmtFarm.scr_step`); ``farm_model``: the rest of the farm as a
+    current source at the collector (``injection``, devices.FarmInjection) or as one grid-following
+    converter behind the aggregated turbine transformers and array cables (``gfl``, gfl_farm.GflAggregate:
+    node ``wt`` with the turbines' filter capacitors, ``wcl`` the clusters' equivalent node)."""
+    if farm_model not in FARM_MODELS:
+        raise ValueError(f"farm_model {farm_model!r}: one of {', '.join(FARM_MODELS)}")
     p = phasor_farm_plant(n_visc, m_q, with_sc, visc_params, **grid)
     nw, pp = p.net, p.params
     z0 = nw.z_grid()
@@ -107,6 +118,9 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
     b_comp = g.comp_fraction * b_export / 2.0  # at each end, as plant/network.py
     z_otr = complex(g.r_otr, g.x_otr) * nw.sb / g.s_otr_mva
     zf = complex(t.rf, t.lf) / k
+    n_agg = nw.n_farm - n_visc  # the aggregated turbines; their clusters: all but the SDViSCs' [assumed]
+    k_agg = n_agg * t.s_rated_mva / g.s_base_mva
+    n_cl_agg = pp.n_clusters - (1 if n_visc else 0)
     sc = None
     if with_sc:
         sc = p.X[p.layout.condenser:p.layout.grid].real.copy()
@@ -139,7 +153,15 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
             if b_comp > 0.0:
                 n.add("L", f"{end}_reactor", end, netlist.GND, (1.0 / b_comp, 1.0 / b_comp))
         n.add("C", "array_charging", "col", netlist.GND, (pp.n_clusters - 0.5) * b_array)
-        n.add("I", "farm", "col", netlist.GND, i_farm)
+        if farm_model == "gfl":  # the aggregated turbines behind their transformers and clusters' cables
+            n.add("C", "cf_agg", "wt", netlist.GND, t.cf * k_agg * CF_AGG_SCALE)
+            n.add("R", "ttr_agg_r", "wt", "wt_mid", z_ttr.real / n_agg)
+            n.add("L", "ttr_agg_l", "wt_mid", "wcl", (z_ttr.imag / n_agg, arrangement.OPEN_SEQUENCE_X))
+            n.add("R", "array_agg_r", "wcl", "wcl_mid", z_array.real / n_cl_agg)
+            n.add("L", "array_agg_l", "wcl_mid", "col", (z_array.imag / n_cl_agg, z_array.imag / n_cl_agg))
+            n.add("I", "farm", "wt", netlist.GND, i_farm)
+        else:
+            n.add("I", "farm", "col", netlist.GND, i_farm)
         if n_visc:
             n.add("C", "array_charging_cl", "cl", netlist.GND, 0.5 * b_array)
             n.add("R", "array_r", "cl", "array_mid", z_array.real)
@@ -175,7 +197,8 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
     params = [p.visc_params if m_q is None else p.visc_params.with_changes(m_q=float(np.asarray(m_q)[j]))
               for j in range(n_visc)]
     circ = FarmCircuit(net, v0, n_visc, k, zf, i_unit0, params, v0["col"] * np.conj(i_farm),
-                       nw.n_farm * t.s_rated_mva / g.s_base_mva, sc, p.sc.v_ref if with_sc else 1.0)
+                       nw.n_farm * t.s_rated_mva / g.s_base_mva, sc, p.sc.v_ref if with_sc else 1.0,
+                       farm_model, complex(i_farm), k_agg)
     return circ, p
 
 
@@ -189,8 +212,9 @@ class EmtFarm:
     def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
                  steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
                  scr_after: float | None = None, visc_params: ViscParams | None = None,
-                 k_ad: float = K_AD_PARALLEL, **grid):
-        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params, **grid)
+                 k_ad: float = K_AD_PARALLEL, farm_model: str = "injection", **grid):
+        self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params,
+                                                  farm_model, **grid)
         self.h = TS_S / steps_per_ts
         self.n_sub = steps_per_ts
         self.k_ad = k_ad
@@ -208,6 +232,8 @@ class EmtFarm:
             self._q_order0, self._q_farm0 = float(self.wpp.q_turbines), self.circ.farm_s.imag
             self._q_scale = (self.phasor_plant.net.n_farm - n_visc) * pp.turbine.s_rated_mva / pp.grid.s_base_mva
         self._e = [self.circ.v0[f"c{j}"] for j in range(n_visc)]
+        self.gfl = (GflAggregate(self.circ.v0["wt"], self.circ.farm_i0, self.circ.k_agg, TS_S, pp.turbine)
+                    if farm_model == "gfl" else None)
 
     def activate(self, run=None) -> None:
         """Every SDViSC switches to the ViSC law, bumpless at its present terminal voltage and current."""
@@ -262,6 +288,10 @@ class EmtFarm:
             sc_ref = built.comps["sc_emf"].attr("V_ref")
         park = frame.park_sample
         poles = [built.comps.get(f"grid_par_pole{ph}") for ph in range(3)]
+        gfl = self.gfl
+        wt_attr = built.nodes["wt"].attr("v") if gfl is not None else None
+        gfl_rows: list[tuple] = []
+        v_wt_sum = 0j
         par_i = built.comps["grid_par_l"].attr("i_intf") if poles[0] is not None else None
         i_par_last = np.zeros(3)
         open_poles = [False] * 3
@@ -303,7 +333,17 @@ class EmtFarm:
                     i_sc[k] = -sc_i.get().ravel()
                     sa, sb, sc_ = i_sc[k].tolist()
                     sc_ref.set(conv(self.sc.step(park(*vs, tk), park(sa, sb, sc_, tk), self.h)))
-                if (k + 1) % self.n_sub == 0 and k + 1 >= spc:
+                if gfl is not None:  # the Ts-mean of the terminal's Park phasor: the converter's measurement
+                    v_wt_sum += park(*wt_attr.get().ravel().tolist(), tk)
+                if gfl is not None and (k + 1) % self.n_sub == 0:
+                    if self.wpp is not None:
+                        v1_pcc = abs(park(*v_pcc[k].tolist(), tk))
+                        q = self.wpp.update(tk, v1_pcc, np.array([gfl.vm]))
+                        gfl.q_star = gfl.q0 + float(q[0]) - self._q_order0
+                    farm_ref.set(conv(gfl.sample(v_wt_sum / self.n_sub) / np.sqrt(3.0)))
+                    v_wt_sum = 0j
+                    gfl_rows.append((tk, gfl.theta, gfl.vm, gfl.v_dc, gfl.i_ref_dq, gfl.q_star))
+                elif gfl is None and (k + 1) % self.n_sub == 0 and k + 1 >= spc:
                     lo = k + 1 - spc
                     v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
                     if self.wpp is not None:
@@ -317,6 +357,9 @@ class EmtFarm:
         i_c = np.array(i_rows, dtype=float).reshape(nu, n, 3).transpose(1, 0, 2)
         out = {"t": t, "h": self.h, "spc": spc, "v_pcc_abc": v_pcc, "v_col_abc": v_col, "v_t_abc": v_t,
                "i_abc": i_c, "i_sc_abc": i_sc, "wall_s": wall, "cpu_s": cpu, "k_unit": c.k_unit}
+        if gfl_rows:  # the aggregated converter's controls every Ts: t, PLL angle, V_m, v_dc, i* (PLL frame), Q*
+            out["gfl"] = {key: np.array(col) for key, col in zip(("t", "theta", "vm", "v_dc", "i_ref_dq", "q_star"),
+                                                                 zip(*gfl_rows))}
         out["v_pcc"] = frame.park(v_pcc, t)
         out["v_t"] = frame.park(np.moveaxis(v_t, 1, 0), t).T  # [step, unit]
         out["i"] = frame.park(np.moveaxis(i_c, 1, 0), t).T / c.k_unit  # own base
