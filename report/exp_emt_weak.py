@@ -39,6 +39,7 @@ from report.weak_cases import (
 )
 
 FARM_MODEL = "gfl"  # the rest of the farm: one grid-following converter with the phasor turbine's controls
+EXCHANGE = "ts"  # the devices driven every Ts (plant/emt/farm_run.py): the F7/F9 quantities as with every step
 SCR_YES, SCR_PARTLY = 0.1, 0.3  # |EMT - phasor| boundary, SCR: yes (issue 40's goal), partly
 CASES = {"none": {"n_visc": 0}, "SC": {"n_visc": 0, "with_sc": True},
          NET_CASE: {"n_visc": 4, "visc_params": visc_params(False)}}
@@ -50,15 +51,18 @@ QUICK_XTOL = 0.25  # SCR: the EMT searches' tolerance under --quick (6 runs each
 def emt_scr_run(case: dict, scr: float, t_end: float) -> dict:
     """One EMT run of ``case`` (EmtFarm keys) with the SCR step 7.14 → ``scr`` at 1 s; the SDViSCs active from
     the start (as the phasor plant's cases)."""
-    m = EmtFarm(scr_after=scr, farm_model=FARM_MODEL, **case)
+    m = EmtFarm(scr_after=scr, farm_model=FARM_MODEL, exchange=EXCHANGE, **case)
     events = [(T_EVENT, EmtFarm.scr_step)] + ([(0.0, EmtFarm.activate)] if case.get("n_visc") else [])
     with np.errstate(all="ignore"):
         r = m.run(t_end, events=events)
-    t = r["t"]
     v1 = np.abs(frame.positive_sequence(r["v_pcc"], r["spc"]))
     vt = np.abs(r["v_t"]) if r["v_t"].size else None
-    keep = slice(None, None, 13)  # every Ts
-    return {"t": t[keep], "v_pcc": v1[keep], "v_wt": vt[keep] if vt is not None else None, "cpu_s": r["cpu_s"]}
+    n_sub = m.n_sub
+    keep = slice(n_sub - 1, None, n_sub)  # every Ts, at the exchange's instants (r["t_ts"])
+    out = {"t": r["t"][keep], "v_pcc": v1[keep], "v_wt": vt, "cpu_s": r["cpu_s"]}
+    if "gfl" in r:
+        out["gfl"] = r["gfl"]
+    return out
 
 
 def emt_state(r: dict) -> Stability:

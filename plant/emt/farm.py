@@ -19,24 +19,21 @@ farm's P and Q constant).
 from __future__ import annotations
 
 import copy
-import time
 from dataclasses import dataclass
 
 import numpy as np
 
 import plant.cases
 from plant.condenser import Condenser
-from plant.emt import arrangement, frame, netlist
+from plant.emt import arrangement, netlist
 from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
-from plant.emt.dpsim_env import dpsim, native_stdout_silenced
+from plant.emt.farm_run import EXCHANGES, run_farm
 from plant.emt.gfl_farm import GflAggregate
 from plant.emt.model import STEPS_PER_TS, TS_S
 from sdc_unit import law
 from sdc_unit.params import ViscParams
-from sdvisc.vocabulary import F_NOMINAL_HZ
 
 FARM_MODELS = ("injection", "gfl")
-CF_AGG_SCALE = 1.0
 LOAD_FLOW_ITERATIONS = 4  # the farm's injection matched to the PCC's current (converges to 1e-9 in 3)
 K_AD_PARALLEL = 0.5
 """The SDViSC converters' active damping gain here (``TurbineParams.k_ad`` is 0.2) [measured: with 0.2 the
@@ -84,14 +81,15 @@ def phasor_farm_plant(n_visc: int, m_q=None, with_sc: bool = False, visc_params:
 
 def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = arrangement.R_FAULT,
                scr_after: float | None = None, visc_params: ViscParams | None = None,
-               farm_model: str = "injection", **grid) -> tuple[FarmCircuit, object]:
+               farm_model: str = "injection", damping_k: float = 0.0, **grid) -> tuple[FarmCircuit, object]:
     """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from); ``r_fault``:
     the SLG fault's resistance when closed (p.u., network base); ``scr_after``: the grid's Thevenin
     impedance is that of this SCR with a parallel branch (the same X/R) that makes it the phasor plant's
     SCR until its breaker opens (:meth:`EmtFarm.scr_step`); ``farm_model``: the rest of the farm as a
     current source at the collector (``injection``, devices.FarmInjection) or as one grid-following
     converter behind the aggregated turbine transformers and array cables (``gfl``, gfl_farm.GflAggregate:
-    node ``wt`` with the turbines' filter capacitors, ``wcl`` the clusters' equivalent node)."""
+    node ``wt`` with the turbines' filter capacitors, ``wcl`` the clusters' equivalent node); ``damping_k``:
+    the SDViSCs' active damping inside the circuit (their filters divided by 1 + k, farm_run's ``ts``)."""
     if farm_model not in FARM_MODELS:
         raise ValueError(f"farm_model {farm_model!r}: one of {', '.join(FARM_MODELS)}")
     p = phasor_farm_plant(n_visc, m_q, with_sc, visc_params, **grid)
@@ -118,6 +116,7 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
     b_comp = g.comp_fraction * b_export / 2.0  # at each end, as plant/network.py
     z_otr = complex(g.r_otr, g.x_otr) * nw.sb / g.s_otr_mva
     zf = complex(t.rf, t.lf) / k
+    zf_eq = zf / (1.0 + damping_k)  # the filter as the circuit sees it with the active damping inside (farm_run)
     n_agg = nw.n_farm - n_visc  # the aggregated turbines; their clusters: all but the SDViSCs' [assumed]
     k_agg = n_agg * t.s_rated_mva / g.s_base_mva
     n_cl_agg = pp.n_clusters - (1 if n_visc else 0)
@@ -154,7 +153,7 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
                 n.add("L", f"{end}_reactor", end, netlist.GND, (1.0 / b_comp, 1.0 / b_comp))
         n.add("C", "array_charging", "col", netlist.GND, (pp.n_clusters - 0.5) * b_array)
         if farm_model == "gfl":  # the aggregated turbines behind their transformers and clusters' cables
-            n.add("C", "cf_agg", "wt", netlist.GND, t.cf * k_agg * CF_AGG_SCALE)
+            n.add("C", "cf_agg", "wt", netlist.GND, t.cf * k_agg)
             n.add("R", "ttr_agg_r", "wt", "wt_mid", z_ttr.real / n_agg)
             n.add("L", "ttr_agg_l", "wt_mid", "wcl", (z_ttr.imag / n_agg, arrangement.OPEN_SEQUENCE_X))
             n.add("R", "array_agg_r", "wcl", "wcl_mid", z_array.real / n_cl_agg)
@@ -174,8 +173,8 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
                 n.add("I", f"conv{j}", f"t{j}", netlist.GND, i_unit0[j])
             else:
                 n.add("V", f"conv{j}", f"c{j}", netlist.GND, e_conv[j])
-                n.add("R", f"rf{j}", f"c{j}", f"m{j}", zf.real)
-                n.add("L", f"lf{j}", f"m{j}", f"t{j}", (zf.imag, zf.imag))
+                n.add("R", f"rf{j}", f"c{j}", f"m{j}", zf_eq.real)
+                n.add("L", f"lf{j}", f"m{j}", f"t{j}", (zf_eq.imag, zf_eq.imag))
         if with_sc:
             zs, ztr = nw.z_sc_source(), nw.z_sc_tr()
             n.add("L", "sc_tr", "sc_t", "pcc", (ztr.imag, arrangement.OPEN_SEQUENCE_X))
@@ -191,7 +190,7 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
         lf_net = netlist_of(i_farm, None, e_sc)
         lf = netlist.load_flow(lf_net)
         i_farm += i_target - netlist.branch_current(lf_net, lf, "ontr_r")
-    e_conv = [lf[f"t{j}"] + zf * i_unit0[j] for j in range(n_visc)]
+    e_conv = [lf[f"t{j}"] + zf_eq * i_unit0[j] for j in range(n_visc)]
     net = netlist_of(i_farm, e_conv, e_sc)
     v0 = netlist.load_flow(net)
     params = [p.visc_params if m_q is None else p.visc_params.with_changes(m_q=float(np.asarray(m_q)[j]))
@@ -212,13 +211,19 @@ class EmtFarm:
     def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
                  steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
                  scr_after: float | None = None, visc_params: ViscParams | None = None,
-                 k_ad: float = K_AD_PARALLEL, farm_model: str = "injection", **grid):
+                 k_ad: float = K_AD_PARALLEL, farm_model: str = "injection", exchange: str = "step",
+                 record_every_step: bool = False, **grid):
+        if exchange not in EXCHANGES:
+            raise ValueError(f"exchange {exchange!r}: one of {', '.join(EXCHANGES)}")
+        self.exchange = exchange
+        self.record_every_step = record_every_step
         self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params,
-                                                  farm_model, **grid)
+                                                  farm_model, k_ad if exchange == "ts" else 0.0, **grid)
         self.h = TS_S / steps_per_ts
         self.n_sub = steps_per_ts
         self.k_ad = k_ad
         pp = self.phasor_plant.params
+        self.w_ad = pp.turbine.w_ad
         self.farm = FarmInjection(self.circ.farm_s, self.circ.farm_rating, pp.turbine)
         self.units: list[ViscConverter | None] = [None] * n_visc
         self.sc = (CondenserEmf(pp.condenser, self.circ.sc_state, self.circ.sc_v_ref, self.phasor_plant.net.k_sc)
@@ -251,117 +256,8 @@ class EmtFarm:
 
     def run(self, t_end: float, events: list | None = None, fault: tuple[float, float] | None = None) -> dict:
         """As :meth:`plant.emt.model.EmtComparison.run`: ``events`` [(t, callable(run))], ``fault`` (on, off)
-        of a bolted SLG fault (phase a) at the PCC. Returns every step's phase voltages at the PCC
-        (``v_pcc_abc``) and the SDViSC terminals (``v_t_abc``, [step, unit, phase]), their converter currents
-        (``i_abc``, network base), Park phasors of each, ``cpu_s`` and ``wall_s``."""
-        d = dpsim()
-        c = self.circ
-        built = netlist.build(c.net, c.v0)
-        sim = d.Simulation("sdvisc_emt_farm", d.LogLevel.off)
-        sim.set_system(built.sys)
-        sim.set_domain(d.Domain.EMT)
-        sim.set_time_step(self.h)
-        sim.set_final_time(t_end + 10 * self.h)
-        sim.do_init_from_nodes_and_terminals(True)
-        k_clear = None
-        if fault is not None:
-            sim.add_event(d.event.SwitchEvent3Ph(round(fault[0] / self.h) * self.h - 0.5 * self.h,
-                                                 built.comps["fault"], True))
-            k_clear = int(round(fault[1] / self.h))
-        n = int(round(t_end / self.h))
-        nu = c.n_visc
-        pending = sorted(((int(round(t / self.h)), f) for t, f in (events or [])), key=lambda e: e[0])
-        t = (np.arange(n) + 1) * self.h
-        spc = int(round(1.0 / (F_NOMINAL_HZ * self.h)))
-        v_pcc, v_col = np.zeros((n, 3)), np.zeros((n, 3))
-        vt_rows: list[list] = [[] for _ in range(nu)]
-        i_rows: list[list] = [[] for _ in range(nu)]
-        i_sc = np.zeros((n, 3))
-        conv = d.Math.single_phase_variable_to_three_phase
-        v_attr, col_attr = built.nodes["pcc"].attr("v"), built.nodes["col"].attr("v")
-        vt_attr = [built.nodes[f"t{j}"].attr("v") for j in range(nu)]
-        i_attr = [built.comps[f"lf{j}"].attr("i_intf") for j in range(nu)]
-        e_attr = [built.comps[f"conv{j}"].attr("V_ref") for j in range(nu)]
-        farm_ref = built.comps["farm"].attr("I_ref")
-        if self.sc is not None:
-            sc_v, sc_i = built.nodes["sc_t"].attr("v"), built.comps["sc_l"].attr("i_intf")
-            sc_ref = built.comps["sc_emf"].attr("V_ref")
-        park = frame.park_sample
-        poles = [built.comps.get(f"grid_par_pole{ph}") for ph in range(3)]
-        gfl = self.gfl
-        wt_attr = built.nodes["wt"].attr("v") if gfl is not None else None
-        gfl_rows: list[tuple] = []
-        v_wt_sum = 0j
-        par_i = built.comps["grid_par_l"].attr("i_intf") if poles[0] is not None else None
-        i_par_last = np.zeros(3)
-        open_poles = [False] * 3
-        wall0, cpu0 = time.perf_counter(), time.process_time()
-        with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
-            sim.start()
-            for k in range(n):
-                while pending and pending[0][0] <= k:
-                    pending.pop(0)[1](self)
-                sim.next()
-                tk = float(t[k])
-                v_pcc[k] = np.ravel(v_attr.get())
-                v_col[k] = np.ravel(col_attr.get())
-                if k_clear is not None and k >= k_clear and v_pcc[k, 0] * v_pcc[k - 1, 0] <= 0.0:
-                    built.comps["fault"].open()  # at phase a's current zero, as a breaker (model.py)
-                    k_clear = None
-                for j in range(nu):  # Python floats: numpy scalars' arithmetic is ~3x slower in park_sample
-                    va, vb, vc = vt_attr[j].get().ravel().tolist()
-                    ia, ib, ic = (-i_attr[j].get().ravel()).tolist()  # i_intf of [m, t] flows t -> m
-                    vt_rows[j].append((va, vb, vc))
-                    i_rows[j].append((ia, ib, ic))
-                    vk, ik = park(va, vb, vc, tk), park(ia, ib, ic, tk)
-                    self._last[j] = (vk, ik)
-                    u = self.units[j]
-                    if u is not None:
-                        u.sample(vk, ik, self.h)
-                        self._e[j] = u.converter_voltage(vk, self.h)
-                        e_attr[j].set(conv(self._e[j]))
-                if par_i is not None and not all(open_poles):
-                    i_par = np.ravel(par_i.get())
-                    if self._opening:
-                        for ph in range(3):
-                            if not open_poles[ph] and i_par[ph] * i_par_last[ph] <= 0.0:
-                                poles[ph].open()
-                                open_poles[ph] = True
-                    i_par_last = i_par
-                if self.sc is not None:
-                    vs = sc_v.get().ravel().tolist()
-                    i_sc[k] = -sc_i.get().ravel()
-                    sa, sb, sc_ = i_sc[k].tolist()
-                    sc_ref.set(conv(self.sc.step(park(*vs, tk), park(sa, sb, sc_, tk), self.h)))
-                if gfl is not None:  # the Ts-mean of the terminal's Park phasor: the converter's measurement
-                    v_wt_sum += park(*wt_attr.get().ravel().tolist(), tk)
-                if gfl is not None and (k + 1) % self.n_sub == 0:
-                    if self.wpp is not None:
-                        v1_pcc = abs(park(*v_pcc[k].tolist(), tk))
-                        q = self.wpp.update(tk, v1_pcc, np.array([gfl.vm]))
-                        gfl.q_star = gfl.q0 + float(q[0]) - self._q_order0
-                    farm_ref.set(conv(gfl.sample(v_wt_sum / self.n_sub) / np.sqrt(3.0)))
-                    v_wt_sum = 0j
-                    gfl_rows.append((tk, gfl.theta, gfl.vm, gfl.v_dc, gfl.i_ref_dq, gfl.q_star))
-                elif gfl is None and (k + 1) % self.n_sub == 0 and k + 1 >= spc:
-                    lo = k + 1 - spc
-                    v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
-                    if self.wpp is not None:
-                        v1_pcc = abs(complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1]))))
-                        q = float(self.wpp.update(tk, v1_pcc))
-                        self.farm.s = complex(self.farm.s.real, self._q_farm0 + (q - self._q_order0) * self._q_scale)
-                    farm_ref.set(conv(self.farm.current(v1, tk) / np.sqrt(3.0)))
-            sim.stop()
-        wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
-        v_t = np.array(vt_rows, dtype=float).reshape(nu, n, 3).transpose(1, 0, 2)
-        i_c = np.array(i_rows, dtype=float).reshape(nu, n, 3).transpose(1, 0, 2)
-        out = {"t": t, "h": self.h, "spc": spc, "v_pcc_abc": v_pcc, "v_col_abc": v_col, "v_t_abc": v_t,
-               "i_abc": i_c, "i_sc_abc": i_sc, "wall_s": wall, "cpu_s": cpu, "k_unit": c.k_unit}
-        if gfl_rows:  # the aggregated converter's controls every Ts: t, PLL angle, V_m, v_dc, i* (PLL frame), Q*
-            out["gfl"] = {key: np.array(col) for key, col in zip(("t", "theta", "vm", "v_dc", "i_ref_dq", "q_star"),
-                                                                 zip(*gfl_rows))}
-        out["v_pcc"] = frame.park(v_pcc, t)
-        out["v_t"] = frame.park(np.moveaxis(v_t, 1, 0), t).T  # [step, unit]
-        out["i"] = frame.park(np.moveaxis(i_c, 1, 0), t).T / c.k_unit  # own base
-        out["q"] = (out["v_t"] * np.conj(out["i"])).imag if nu else np.zeros((n, 0))
-        return out
+        of a bolted SLG fault (phase a) at the PCC (plant/emt/farm_run.py). Returns every step's phase voltages
+        at the PCC (``v_pcc_abc``, times ``t``), the SDViSC terminals' (``v_t_abc``, [record, unit, phase]) and
+        their converter currents (``i_abc``, network base) at the record times ``t_ts`` (every step, or every
+        Ts with ``exchange="ts"`` unless ``record_every_step``), Park phasors of each, ``cpu_s``, ``wall_s``."""
+        return run_farm(self, t_end, events, fault)

@@ -1,0 +1,183 @@
+"""The stepped run of F8's farm arrangement (plant/emt/farm.py's ``EmtFarm.run``): DPsim's solver between
+Python's controllers, in one of two exchanges.
+
+* ``step``: the SDViSCs' ViSC law and their active damping, and the SC's rotor and AVR, every circuit step
+  (51.5 µs; the HD ViSC), everything recorded every step;
+* ``ts``: the exchange every Ts = 0.67 ms (13 circuit steps), as the SDC drives the paper's converter: the
+  law sampled every Ts (forward Euler over Ts, v_ref held: the discrete SDC), the SC's rotor and AVR
+  advanced over Ts (forward Euler, E'' held), the converter's active damping inside the circuit at every
+  step as its exact equivalent. With v_conv = v_ref + k_ad phi - k_ad v_t at the converter behind
+  r_f + j l_f to its terminal v_t, Kirchhoff's law gives v_t = (v_ref + k_ad phi)/(1 + k_ad)
+  - (r_f i + (l_f/omega0) di/dt)/(1 + k_ad): a source (v_ref + k_ad phi)/(1 + k_ad) behind the filter
+  divided by 1 + k_ad (the netlist's ``damping_k``), the same filter current, phi (the 50 rad/s low-pass)
+  updated every Ts. Recorded: the PCC's phases every step, the rest every Ts (``t_ts``), or every step
+  with ``EmtFarm.record_every_step`` (the exchange still every Ts; instantaneous peaks need it).
+
+The aggregated farm (FarmInjection or GflAggregate) is updated every Ts in both.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from plant.emt import frame, netlist
+from plant.emt.dpsim_env import dpsim, native_stdout_silenced
+from sdvisc.vocabulary import F_NOMINAL_HZ
+
+EXCHANGES = ("step", "ts")
+SQRT3 = math.sqrt(3.0)
+
+
+class _Poles:
+    """The SCR step's breaker: each pole opens at its current's next zero once the event has come."""
+
+    def __init__(self, built):
+        self.poles = [built.comps.get(f"grid_par_pole{ph}") for ph in range(3)]
+        self.i_attr = built.comps["grid_par_l"].attr("i_intf") if self.poles[0] is not None else None
+        self.last = None
+        self.open = [False] * 3
+
+    def check(self, opening: bool) -> None:
+        if self.i_attr is None or all(self.open) or not opening:
+            return
+        i = self.i_attr.get().ravel().tolist()
+        if self.last is not None:
+            for ph in range(3):
+                if not self.open[ph] and i[ph] * self.last[ph] <= 0.0:
+                    self.poles[ph].open()
+                    self.open[ph] = True
+        self.last = i
+
+
+def _simulation(m, built, t_end: float, fault):
+    d = dpsim()
+    sim = d.Simulation("sdvisc_emt_farm", d.LogLevel.off)
+    sim.set_system(built.sys)
+    sim.set_domain(d.Domain.EMT)
+    sim.set_time_step(m.h)
+    sim.set_final_time(t_end + 10 * m.h)
+    sim.do_init_from_nodes_and_terminals(True)
+    if fault is not None:
+        sim.add_event(d.event.SwitchEvent3Ph(round(fault[0] / m.h) * m.h - 0.5 * m.h, built.comps["fault"], True))
+    return sim
+
+
+def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, float] | None = None) -> dict:
+    """``m`` an EmtFarm; see ``EmtFarm.run``."""
+    c = m.circ
+    built = netlist.build(c.net, c.v0)
+    sim = _simulation(m, built, t_end, fault)
+    conv = dpsim().Math.single_phase_variable_to_three_phase
+    k_clear = None if fault is None else int(round(fault[1] / m.h))
+    n, nu, n_sub, every_step = int(round(t_end / m.h)), c.n_visc, m.n_sub, m.exchange == "step"
+    pending = sorted(((int(round(t / m.h)), f) for t, f in (events or [])), key=lambda e: e[0])
+    t = (np.arange(n) + 1) * m.h
+    spc = int(round(1.0 / (F_NOMINAL_HZ * m.h)))
+    record_all = every_step or m.record_every_step
+    n_rec = n if record_all else n // n_sub
+    v_pcc, v_col = np.zeros((n, 3)), np.zeros((n, 3))
+    v_t, i_c, i_sc = np.zeros((n_rec, nu, 3)), np.zeros((n_rec, nu, 3)), np.zeros((n_rec, 3))
+    t_rec = np.zeros(n_rec)
+    v_attr, col_attr = built.nodes["pcc"].attr("v"), built.nodes["col"].attr("v")
+    vt_attr = [built.nodes[f"t{j}"].attr("v") for j in range(nu)]
+    i_attr = [built.comps[f"lf{j}"].attr("i_intf") for j in range(nu)]
+    e_attr = [built.comps[f"conv{j}"].attr("V_ref") for j in range(nu)]
+    farm_ref = built.comps["farm"].attr("I_ref")
+    sc = m.sc
+    if sc is not None:
+        sc_v, sc_i = built.nodes["sc_t"].attr("v"), built.comps["sc_l"].attr("i_intf")
+        sc_ref = built.comps["sc_emf"].attr("V_ref")
+    park = frame.park_sample
+    poles = _Poles(built)
+    gfl = m.gfl
+    wt_attr = built.nodes["wt"].attr("v") if gfl is not None else None
+    gfl_rows: list[tuple] = []
+    ts = m.h * n_sub
+    kd = m.k_ad
+    a_phi = 1.0 - math.exp(-ts * m.w_ad)  # the active damping's low-pass over Ts (exact, v_t held)
+    phi = [v for v, _ in m._last]
+    col_every_step = gfl is None  # the injection's one-cycle mean of the collector voltage
+    wall0, cpu0 = time.perf_counter(), time.process_time()
+    with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
+        sim.start()
+        r = 0
+        for k in range(n):
+            while pending and pending[0][0] <= k:
+                pending.pop(0)[1](m)
+            sim.next()
+            tk = float(t[k])
+            v_pcc[k] = v_attr.get().ravel()
+            if col_every_step or every_step:
+                v_col[k] = col_attr.get().ravel()
+            if k_clear is not None and k >= k_clear and v_pcc[k, 0] * v_pcc[k - 1, 0] <= 0.0:
+                built.comps["fault"].open()  # at phase a's current zero, as a breaker (model.py)
+                k_clear = None
+            poles.check(m._opening)
+            at_ts = (k + 1) % n_sub == 0
+            exchange_now = every_step or at_ts
+            if not (record_all or exchange_now):
+                continue
+            t_rec[r] = tk
+            for j in range(nu):  # Python floats: numpy scalars' arithmetic is ~3x slower in park_sample
+                va, vb, vc = vt_attr[j].get().ravel().tolist()
+                ia, ib, ic = (-i_attr[j].get().ravel()).tolist()  # i_intf of [m, t] flows t -> m
+                v_t[r, j] = va, vb, vc
+                i_c[r, j] = ia, ib, ic
+                if not exchange_now:
+                    continue
+                vk, ik = park(va, vb, vc, tk), park(ia, ib, ic, tk)
+                m._last[j] = (vk, ik)
+                u = m.units[j]
+                if every_step:
+                    if u is not None:
+                        u.sample(vk, ik, m.h)
+                        m._e[j] = u.converter_voltage(vk, m.h)
+                        e_attr[j].set(conv(m._e[j]))
+                    continue
+                v_ref = m._e[j]  # held at its start-up voltage until activate
+                if u is not None:
+                    u.sample(vk, ik, ts)
+                    v_ref = u.v_ref
+                phi[j] += a_phi * (vk - phi[j])
+                e_attr[j].set(conv((v_ref + kd * phi[j]) / (1.0 + kd)))
+            if sc is not None:
+                i_sc[r] = -sc_i.get().ravel()
+                if exchange_now:
+                    vs = sc_v.get().ravel().tolist()
+                    sa, sb, sc_ = i_sc[r].tolist()
+                    sc_ref.set(conv(sc.step(park(*vs, tk), park(sa, sb, sc_, tk), m.h if every_step else ts)))
+            if not col_every_step and not every_step:
+                v_col[k] = col_attr.get().ravel()
+            r += 1
+            if not at_ts:
+                continue
+            if gfl is not None:
+                if m.wpp is not None:
+                    q = m.wpp.update(tk, abs(park(*v_pcc[k].tolist(), tk)), np.array([gfl.vm]))
+                    gfl.q_star = gfl.q0 + float(q[0]) - m._q_order0
+                farm_ref.set(conv(gfl.sample(park(*wt_attr.get().ravel().tolist(), tk)) / SQRT3))
+                gfl_rows.append((tk, gfl.theta, gfl.vm, gfl.v_dc, gfl.i_ref_dq, gfl.q_star))
+            elif k + 1 >= spc:
+                lo = k + 1 - spc
+                v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
+                if m.wpp is not None:
+                    v1_pcc = abs(complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1]))))
+                    q = float(m.wpp.update(tk, v1_pcc))
+                    m.farm.s = complex(m.farm.s.real, m._q_farm0 + (q - m._q_order0) * m._q_scale)
+                farm_ref.set(conv(m.farm.current(v1, tk) / SQRT3))
+        sim.stop()
+    wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    out = {"t": t, "h": m.h, "spc": spc, "v_pcc_abc": v_pcc, "v_col_abc": v_col, "v_t_abc": v_t, "i_abc": i_c,
+           "i_sc_abc": i_sc, "wall_s": wall, "cpu_s": cpu, "k_unit": c.k_unit, "t_ts": t_rec,
+           "exchange": m.exchange}
+    if gfl_rows:  # the aggregated converter's controls every Ts: t, PLL angle, V_m, v_dc, i* (PLL frame), Q*
+        out["gfl"] = {key: np.array(col) for key, col in zip(("t", "theta", "vm", "v_dc", "i_ref_dq", "q_star"),
+                                                             zip(*gfl_rows))}
+    out["v_pcc"] = frame.park(v_pcc, t)
+    out["v_t"] = frame.park(np.moveaxis(v_t, 1, 0), t_rec).T  # [record, unit]
+    out["i"] = frame.park(np.moveaxis(i_c, 1, 0), t_rec).T / c.k_unit  # own base
+    out["q"] = (out["v_t"] * np.conj(out["i"])).imag if nu else np.zeros((n_rec, 0))
+    return out
