@@ -4,12 +4,14 @@ DPsim) beside the phasor plant, with the same stability criterion (report/stabil
 positive-sequence voltage (one-cycle mean of the Park phasor).
 
 The SCR step in EMT: the grid's Thevenin branch is the final SCR's, a parallel branch of the same X/R makes
-it 7.14 until its breaker opens at 1 s, each pole at its current's zero. The farm is one aggregated
-grid-following current source with the plant controller (plant/wpp.py, the phasor plant's, settled) setting
-its Q: the turbines' PLLs and current loops, their DC links and the 50 turbines' own network are not in it,
-so a weak-grid loss on the EMT backend is that of a constant-P injection recomputed every Ts from the
-collector's one-cycle mean voltage, with the WPP's Q — not the phasor plant's PLL-driven mechanism
-(report/f7_mechanism.py). The rows say how far the boundaries are apart; the paper's reading of each EMT
+it 7.14 until its breaker opens at 1 s, each pole at its current's zero. The rest of the farm is one
+aggregated grid-following converter with the phasor turbine's control structure (plant/emt/gfl_farm.py: PLL,
+|v| filter, DC link, current limit and FRT with reactive priority) behind the aggregated turbine
+transformers and array cables, its Q* the plant controller's order (plant/wpp.py, the phasor plant's,
+settled; the turbines' Q limitation at the aggregate's V_m); the devices driven every Ts (farm_run's
+``ts``). The rows say how far the boundaries are apart and how each model loses stability just below its
+own (``measured["below"]``: the phasor plant's turbines settle current-limited in a sag; the EMT
+aggregate's PLL slips, an ideal current source with no modulation limit); the paper's reading of each EMT
 value is in ``measured["printed"]`` for report/printed.py's count per model.
 
 F7's SDViSC row of the paper is the comparison arrangement's one 40 MVA SDViSC at the onshore PCC; the EMT
@@ -80,6 +82,39 @@ def emt_boundary(case: dict, t_end: float, xtol: float) -> tuple[Boundary, dict[
     return b, runs
 
 
+def below(emt_run: dict | None, phasor_run: dict | None) -> dict:
+    """How each model is lost just below its boundary, over the run's last second: the EMT aggregate's PLL
+    slip (its angle's change, Hz) and largest |v| filter output; the phasor plant's PCC voltage and its
+    turbines' largest current magnitude (p.u., the limit is TurbineParams.i_max_gfl)."""
+    out: dict = {}
+    if emt_run is not None and "gfl" in emt_run:
+        g = emt_run["gfl"]
+        last = g["t"] >= g["t"][-1] - 1.0
+        th = g["theta"][last]
+        out["emt_pll_slip_hz"] = float((th[-1] - th[0]) / (2 * np.pi * (g["t"][last][-1] - g["t"][last][0])))
+        out["emt_vm_max"] = float(g["vm"][last].max())
+        out["emt_v_pcc_end"] = float(emt_run["v_pcc"][-1])
+    if phasor_run is not None:
+        t = np.asarray(phasor_run["t"])
+        last = t >= t[-1] - 1.0
+        out["phasor_v_pcc_end"] = float(np.asarray(phasor_run["v_pcc"])[-1])
+        out["phasor_i_wt_max_end"] = float(np.abs(np.asarray(phasor_run["i_wt"]))[last].max())
+    return out
+
+
+def _below_text(b: dict) -> str:
+    if not b:
+        return ""
+    parts = []
+    if "phasor_v_pcc_end" in b:
+        parts.append(f"phasor: V_pcc ends {b['phasor_v_pcc_end']:.3f}, turbine current {b['phasor_i_wt_max_end']:.3f} "
+                     "p.u. (the limit 1.1: a current-limited sag)")
+    if "emt_pll_slip_hz" in b:
+        parts.append(f"EMT: the aggregate's PLL slips at {b['emt_pll_slip_hz']:.1f} Hz, its |v| filter up to "
+                     f"{b['emt_vm_max']:.2f} p.u. (loss of synchronism; an ideal current source, no modulation limit)")
+    return "Just below each boundary, last 1 s: " + "; ".join(parts) + ". "
+
+
 def _fmt(x: float | None) -> str:
     return "none in the range" if x is None else f"{x:.3f}"
 
@@ -104,8 +139,10 @@ def _weak(ctx: Context) -> dict[str, Finding]:
         e, p = b_e.value, b_p.value
         traces[name] = {"emt": {x: runs[x] for x in (b_e.bracket or ())}, "phasor": p_runs}
         states = "; ".join(f"SCR {x:.3f}: {emt_state(r).describe()}" for x, r in sorted(runs.items()))
+        low_e = runs.get(b_e.bracket[0]) if b_e.bracket else None
+        low_p = p_runs.get(b_p.bracket[0]) if b_p.bracket else None
         measured = {"emt_boundary_scr": e, "phasor_boundary_scr": p, "emt_evaluations": b_e.evaluations,
-                    "emt_cpu_s": cpu[name]}
+                    "emt_cpu_s": cpu[name], "below": below(low_e, low_p)}
         if name in PAPER:
             measured["printed"] = {"reading": f"EMT: SCR step at 1 s, {name}: the boundary below which the farm is "
                                               "not stable (PCC V1, report/stability.py)",
@@ -115,8 +152,9 @@ def _weak(ctx: Context) -> dict[str, Finding]:
             _scr_verdict(e, p),
             f"yes = within {SCR_YES} SCR of the phasor plant's, partly = within {SCR_PARTLY}; bisection in "
             f"[{SCR_RANGE[0]:g}, {SCR_RANGE[1]:g}] to {xtol} (EMT: {xtol_emt}), {t_end:g} s runs, both models. "
-            f"EMT runs: {states}. "
-            "The EMT farm's mechanism is its aggregated injection's (module docstring), not the turbines' PLLs"
+            f"EMT runs: {states}. " + _below_text(measured["below"]) +
+            "The EMT farm: one aggregated grid-following converter with the phasor turbine's controls (module "
+            "docstring)"
             + (f". Paper: {PAPER[name]}" if name in PAPER else ""), measured)
     f9_t, _ = f9_settings(ctx.quick)
     for claim, n in (("EMTW.F9a", 3), ("EMTW.F9b", 4)):
