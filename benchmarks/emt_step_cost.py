@@ -12,7 +12,12 @@ comparison arrangement at the 51.5 µs step (Ts/13), one simulated second after 
 * ``farm_4visc_sc``: F8's farm arrangement (plant/emt/farm.py) with the four SDViSCs (the ViSC law at every
   step, activated at the start) and the SC (rotor and AVR at every step), the farm with its WPP, and its
   ``_solver_only`` twin. Goal (issue 40): >= 2x faster than real time offline, i.e. <= 0.5 CPU-s per
-  simulated second.
+  simulated second;
+* ``farm_4visc_sc_ts``: the same with the exchange every Ts (plant/emt/farm_run.py ``exchange="ts"``: the law
+  and the SC's rotor every Ts, the converters' active damping inside the circuit), recorded every Ts;
+  ``_gfl``: the rest of the farm as the aggregated grid-following converter (plant/emt/gfl_farm.py, as
+  EMTW runs it); ``_record_every_step``: the terminals and currents read every step as well (what F8's
+  instantaneous peaks need).
 
 Usage: nice -n 10 .venv/bin/python benchmarks/emt_step_cost.py [--out benchmarks/measured/emt-step-cost-DATE.json]
 The load average at the start and the end is in the JSON: the 2 cores are shared.
@@ -67,8 +72,8 @@ def solver_only(device: str) -> dict:
     return {"cpu_s_per_sim_s": cpu / SIM_S, "us_per_step": cpu / n * 1e6, "steps": n}
 
 
-def farm_with_exchange() -> dict:
-    m = EmtFarm(4, (0.03, 0.05, 0.07, 0.10), with_sc=True)
+def farm_with_exchange(**kw) -> dict:
+    m = EmtFarm(4, (0.03, 0.05, 0.07, 0.10), with_sc=True, **kw)
     r = m.run(SIM_S, events=[(0.0, EmtFarm.activate)])
     return {"cpu_s_per_sim_s": r["cpu_s"] / SIM_S, "wall_s_per_sim_s": r["wall_s"] / SIM_S,
             "us_per_step": r["cpu_s"] / len(r["t"]) * 1e6, "steps": len(r["t"]), "step_s": r["h"],
@@ -106,6 +111,9 @@ def main() -> None:
     for dev in ("none", "sc", "visc"):
         res[f"{dev}_solver_only"] = solver_only(dev)
     res["farm_4visc_sc"] = farm_with_exchange()
+    res["farm_4visc_sc_ts"] = farm_with_exchange(exchange="ts")
+    res["farm_4visc_sc_ts_gfl"] = farm_with_exchange(exchange="ts", farm_model="gfl")
+    res["farm_4visc_sc_ts_record_every_step"] = farm_with_exchange(exchange="ts", record_every_step=True)
     res["farm_4visc_sc_solver_only"] = farm_solver_only()
     out = {"what": "EMT backend CPU per simulated second (benchmarks/emt_step_cost.py)",
            "date": datetime.date.today().isoformat(), "host": platform.node(), "cpus": os.cpu_count(),

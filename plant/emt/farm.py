@@ -27,10 +27,11 @@ import plant.cases
 from plant.condenser import Condenser
 from plant.emt import arrangement, netlist
 from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
-from plant.emt.farm_run import EXCHANGES, run_farm
+from plant.emt.farm_run import EXCHANGES, run_farm, sdc_measurements
 from plant.emt.gfl_farm import GflAggregate
 from plant.emt.model import STEPS_PER_TS, TS_S
 from sdc_unit import law
+from sdc_unit.discrete import DiscreteVisc
 from sdc_unit.params import ViscParams
 
 FARM_MODELS = ("injection", "gfl")
@@ -226,6 +227,7 @@ class EmtFarm:
         self.w_ad = pp.turbine.w_ad
         self.farm = FarmInjection(self.circ.farm_s, self.circ.farm_rating, pp.turbine)
         self.units: list[ViscConverter | None] = [None] * n_visc
+        self.sdc: DiscreteVisc | None = None  # the SDC's discrete ViSCs (exchange "ts") once activated
         self.sc = (CondenserEmf(pp.condenser, self.circ.sc_state, self.circ.sc_v_ref, self.phasor_plant.net.k_sc)
                    if with_sc else None)
         # each SDViSC's latest (terminal voltage, converter current) phasors: the load flow's until the first step
@@ -241,7 +243,15 @@ class EmtFarm:
                     if farm_model == "gfl" else None)
 
     def activate(self, run=None) -> None:
-        """Every SDViSC switches to the ViSC law, bumpless at its present terminal voltage and current."""
+        """Every SDViSC switches to the ViSC law, bumpless at its present terminal voltage and current: the
+        continuous law per unit (exchange ``step``), the SDC's discrete ViSCs (``ts``, all in one)."""
+        if self.exchange == "ts":
+            if self.circ.n_visc:
+                ps = self.circ.visc_params
+                self.sdc = DiscreteVisc(self.circ.n_visc, ps[0], TS_S, "tustin")
+                self.sdc.rp["m_q"][:] = [float(p.m_q) for p in ps]
+                self.sdc.initialise(np.arange(self.circ.n_visc), sdc_measurements(self._last, self.circ.k_unit))
+            return
         tp = self.phasor_plant.params.turbine
         for j, (v, i) in enumerate(self._last):
             p = self.circ.visc_params[j]

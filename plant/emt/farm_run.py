@@ -4,7 +4,8 @@ Python's controllers, in one of two exchanges.
 * ``step``: the SDViSCs' ViSC law and their active damping, and the SC's rotor and AVR, every circuit step
   (51.5 µs; the HD ViSC), everything recorded every step;
 * ``ts``: the exchange every Ts = 0.67 ms (13 circuit steps), as the SDC drives the paper's converter: the
-  law sampled every Ts (forward Euler over Ts, v_ref held: the discrete SDC), the SC's rotor and AVR
+  SDC's discrete ViSCs (sdc_unit.discrete.DiscreteVisc, Tustin, the four in one call, v_ref held over Ts:
+  the paper's SDViSC), the SC's rotor and AVR
   advanced over Ts (forward Euler, E'' held), the converter's active damping inside the circuit at every
   step as its exact equivalent. With v_conv = v_ref + k_ad phi - k_ad v_t at the converter behind
   r_f + j l_f to its terminal v_t, Kirchhoff's law gives v_t = (v_ref + k_ad phi)/(1 + k_ad)
@@ -29,6 +30,23 @@ from sdvisc.vocabulary import F_NOMINAL_HZ
 
 EXCHANGES = ("step", "ts")
 SQRT3 = math.sqrt(3.0)
+
+
+def sdc_measurements(last: list, k_unit: float) -> np.ndarray:
+    """The SDC's MEAS rows (sdvisc.vocabulary.MEAS_FIELDS: v_d, v_q, i_d, i_q, p, q, v_dc, omega_meas) of each
+    SDViSC's (terminal voltage, converter current [network base]) phasors, own base; v_dc, omega 1."""
+    rows = np.ones((8, len(last)))
+    for j, (v, i_net) in enumerate(last):
+        i = i_net / k_unit
+        s = v * i.conjugate()
+        rows[:6, j] = v.real, v.imag, i.real, i.imag, s.real, s.imag
+    return rows
+
+
+def sdc_sample(sdc, last: list, k_unit: float) -> list[complex]:
+    """One sample of the SDC's discrete ViSCs (sdc_unit.discrete.DiscreteVisc, all units at once): their v_ref."""
+    sdc.advance(sdc_measurements(last, k_unit))
+    return (sdc.last["v_ref_d"] + 1j * sdc.last["v_ref_q"]).tolist()
 
 
 class _Poles:
@@ -137,12 +155,11 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                         m._e[j] = u.converter_voltage(vk, m.h)
                         e_attr[j].set(conv(m._e[j]))
                     continue
-                v_ref = m._e[j]  # held at its start-up voltage until activate
-                if u is not None:
-                    u.sample(vk, ik, ts)
-                    v_ref = u.v_ref
-                phi[j] += a_phi * (vk - phi[j])
-                e_attr[j].set(conv((v_ref + kd * phi[j]) / (1.0 + kd)))
+            if exchange_now and not every_step and nu:
+                v_refs = m._e if m.sdc is None else sdc_sample(m.sdc, m._last, c.k_unit)
+                for j in range(nu):
+                    phi[j] += a_phi * (m._last[j][0] - phi[j])
+                    e_attr[j].set(conv((v_refs[j] + kd * phi[j]) / (1.0 + kd)))
             if sc is not None:
                 i_sc[r] = -sc_i.get().ravel()
                 if exchange_now:
