@@ -51,19 +51,25 @@ def main(argv: list[str] | None = None) -> int:
     import sdn_app.app
 
     def on_term(*_):
-        sdn_app.app.STOPPING = True
-        sys.exit(0)
+        """The first SIGTERM ends the run wherever the main thread is (loading the apps, joining them);
+        later ones only mark it, so the closing below is never cut short."""
+        if not sdn_app.app.STOPPING:
+            sdn_app.app.STOPPING = True
+            sys.exit(0)
 
     signal.signal(signal.SIGTERM, on_term)
-    # what AppManager.run_apps does, minus its final thread.kill() (os-ken 4.2's HubThread has none)
+    # what AppManager.run_apps does, minus its final thread.kill() (os-ken 4.2's HubThread has none);
+    # a SIGTERM while the apps are still being instantiated (a loaded machine) ends here too, never
+    # outside main() where os-ken's blocked threads would keep the interpreter from exiting
     manager = AppManager.get_instance()
-    manager.load_apps(["sdn_app.app", "os_ken.controller.ofp_handler"])
-    services = manager.instantiate_apps(**manager.create_contexts())
     try:
+        manager.load_apps(["sdn_app.app", "os_ken.controller.ofp_handler"])
+        services = manager.instantiate_apps(**manager.create_contexts())
         hub.joinall(services)
     except SystemExit:
         pass
     finally:
+        sdn_app.app.STOPPING = True
         manager.close()  # the app writes its last state and closes its files
     return 0
 
@@ -79,4 +85,8 @@ def exit_now(code: int) -> None:
 
 
 if __name__ == "__main__":
-    exit_now(main())
+    try:
+        exit_code = main()
+    except SystemExit as stop:  # (argparse's --help and errors)
+        exit_code = 0 if stop.code is None else stop.code if isinstance(stop.code, int) else 1
+    exit_now(exit_code)
