@@ -7,6 +7,7 @@ from report.exp_cyber import C1, C2, C3, F1NET, F6NET, F9NET
 from report.exp_delay import B1
 from report.exp_delay_net import B1NET
 from report.exp_emt import EMT
+from report.exp_emt_f1 import EMTF1
 from report.exp_emt_farm import EMTF8
 from report.exp_emt_weak import EMTW
 from report.exp_grid import F3, F4, F5, F6
@@ -27,6 +28,6 @@ from report.registry import CONSISTENCY, relabelled
 # itself (the same case with the SDC over the network), so the headline counts each printed claim once.
 NETWORK_TWINS = ("F1net.a", "F2net.a", "F3net.a", "F3net.b", "F4net.a", "F5net.b", "F6net.b", "F8net.b", "F9net.a")
 KINDS_DECLARED_HERE = dict.fromkeys(NETWORK_TWINS, CONSISTENCY)
-EXPERIMENTS = relabelled((F1, F2, F3, F4, F4H, F5, F6, F7, F8, F9, B1, B2, LAW1, NM, EMT, EMTF8, EMTW, F1NET, F2NET, F3NET, F4NET, F4HNET, F5NET,
+EXPERIMENTS = relabelled((F1, F2, F3, F4, F4H, F5, F6, F7, F8, F9, B1, B2, LAW1, NM, EMT, EMTF8, EMTW, EMTF1, F1NET, F2NET, F3NET, F4NET, F4HNET, F5NET,
                           F6NET, F7NET, F8NET, F9NET, B1NET, C1, C2, C3), KINDS_DECLARED_HERE)  # offline first (fast, no network)
 QUICK_NETWORK = ("F1net", "C2")  # what --quick (without --only) runs through the network: one grid, one cyber case

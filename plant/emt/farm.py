@@ -82,15 +82,19 @@ def phasor_farm_plant(n_visc: int, m_q=None, with_sc: bool = False, visc_params:
 
 def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = arrangement.R_FAULT,
                scr_after: float | None = None, visc_params: ViscParams | None = None,
-               farm_model: str = "injection", damping_k: float = 0.0, **grid) -> tuple[FarmCircuit, object]:
+               farm_model: str = "injection", damping_k: float = 0.0, fault_kind: str = "slg",
+               **grid) -> tuple[FarmCircuit, object]:
     """(the EMT circuit of F8's arrangement and its load flow, the phasor plant it came from); ``r_fault``:
-    the SLG fault's resistance when closed (p.u., network base); ``scr_after``: the grid's Thevenin
+    the fault's resistance per phase when closed (p.u., network base), on phase a (``fault_kind`` "slg") or
+    all three to ground ("3ph"); ``scr_after``: the grid's Thevenin
     impedance is that of this SCR with a parallel branch (the same X/R) that makes it the phasor plant's
     SCR until its breaker opens (:meth:`EmtFarm.scr_step`); ``farm_model``: the rest of the farm as a
     current source at the collector (``injection``, devices.FarmInjection) or as one grid-following
     converter behind the aggregated turbine transformers and array cables (``gfl``, gfl_farm.GflAggregate:
     node ``wt`` with the turbines' filter capacitors, ``wcl`` the clusters' equivalent node); ``damping_k``:
     the SDViSCs' active damping inside the circuit (their filters divided by 1 + k, farm_run's ``ts``)."""
+    if fault_kind not in ("slg", "3ph"):
+        raise ValueError(f"fault_kind {fault_kind!r}: 'slg' or '3ph'")
     if farm_model not in FARM_MODELS:
         raise ValueError(f"farm_model {farm_model!r}: one of {', '.join(FARM_MODELS)}")
     p = phasor_farm_plant(n_visc, m_q, with_sc, visc_params, **grid)
@@ -133,8 +137,10 @@ def build_case(n_visc: int, m_q=None, with_sc: bool = False, r_fault: float = ar
         n.add("L", "grid_l", "grid_mid", "pcc", (zg.imag, zg.imag))
         n.add("L", "zero_seq_ground", "pcc", netlist.GND, (arrangement.OPEN_SEQUENCE_X, nw.z_ontr().imag))
         n.add("R", "damping", "pcc", netlist.GND, arrangement.R_DAMP)
-        n.add("S", "fault", "pcc", netlist.GND, (arrangement.R_OPEN, [max(r_fault, arrangement.R_FAULT),
-                                                                      arrangement.R_OPEN, arrangement.R_OPEN], False))
+        r_f = max(r_fault, arrangement.R_FAULT)
+        n.add("S", "fault", "pcc", netlist.GND,
+              (arrangement.R_OPEN, [r_f] * 3 if fault_kind == "3ph" else [r_f, arrangement.R_OPEN, arrangement.R_OPEN],
+               False))
         if z_par is not None:  # the SCR step: a parallel grid branch, its breaker's poles open at 1 s
             n.add("R", "grid_par_r", "grid_src", "grid_par_mid", z_par.real)
             n.add("L", "grid_par_l", "grid_par_mid", "grid_par_end", (z_par.imag, z_par.imag))
@@ -213,13 +219,13 @@ class EmtFarm:
                  steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
                  scr_after: float | None = None, visc_params: ViscParams | None = None,
                  k_ad: float = K_AD_PARALLEL, farm_model: str = "injection", exchange: str = "step",
-                 record_every_step: bool = False, **grid):
+                 record_every_step: bool = False, fault_kind: str = "slg", **grid):
         if exchange not in EXCHANGES:
             raise ValueError(f"exchange {exchange!r}: one of {', '.join(EXCHANGES)}")
         self.exchange = exchange
         self.record_every_step = record_every_step
         self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params,
-                                                  farm_model, k_ad if exchange == "ts" else 0.0, **grid)
+                                                  farm_model, k_ad if exchange == "ts" else 0.0, fault_kind, **grid)
         self.h = TS_S / steps_per_ts
         self.n_sub = steps_per_ts
         self.k_ad = k_ad

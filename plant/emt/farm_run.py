@@ -49,6 +49,16 @@ def sdc_sample(sdc, last: list, k_unit: float) -> list[complex]:
     return (sdc.last["v_ref_d"] + 1j * sdc.last["v_ref_q"]).tolist()
 
 
+def _law_state(m) -> tuple[list, list]:
+    """(delta, E) of each SDViSC's law now: the SDC's last outputs (``ts``), the continuous law's state and
+    output (``step``); NaN where not active."""
+    if m.sdc is not None:
+        return m.sdc.last["delta"].tolist(), m.sdc.last["e_mag"].tolist()
+    nan = float("nan")
+    return ([nan if u is None else float(u.x[0]) for u in m.units],
+            [nan if u is None else float(u.e_mag) for u in m.units])
+
+
 class _Poles:
     """The SCR step's breaker: each pole opens at its current's next zero once the event has come."""
 
@@ -113,6 +123,7 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     gfl = m.gfl
     wt_attr = built.nodes["wt"].attr("v") if gfl is not None else None
     gfl_rows: list[tuple] = []
+    law_rows: list[tuple] = []
     ts = m.h * n_sub
     kd = m.k_ad
     a_phi = 1.0 - math.exp(-ts * m.w_ad)  # the active damping's low-pass over Ts (exact, v_t held)
@@ -160,6 +171,8 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 for j in range(nu):
                     phi[j] += a_phi * (m._last[j][0] - phi[j])
                     e_attr[j].set(conv((v_refs[j] + kd * phi[j]) / (1.0 + kd)))
+            if at_ts and nu:
+                law_rows.append((tk, *_law_state(m)))
             if sc is not None:
                 i_sc[r] = -sc_i.get().ravel()
                 if exchange_now:
@@ -193,6 +206,9 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     if gfl_rows:  # the aggregated converter's controls every Ts: t, PLL angle, V_m, v_dc, i* (PLL frame), Q*
         out["gfl"] = {key: np.array(col) for key, col in zip(("t", "theta", "vm", "v_dc", "i_ref_dq", "q_star"),
                                                              zip(*gfl_rows))}
+    if law_rows:  # the SDViSCs' law every Ts: t, delta [rad], E [p.u.] per unit (NaN before activation)
+        tl, dl, el = zip(*law_rows)
+        out["law"] = {"t": np.array(tl), "delta": np.array(dl), "e_mag": np.array(el)}
     out["v_pcc"] = frame.park(v_pcc, t)
     out["v_t"] = frame.park(np.moveaxis(v_t, 1, 0), t_rec).T  # [record, unit]
     out["i"] = frame.park(np.moveaxis(i_c, 1, 0), t_rec).T / c.k_unit  # own base
