@@ -136,16 +136,10 @@ def run_sdc(case: FaultCase = FaultCase(), method: str = "tustin", dtype=np.floa
             queue.append((o.v_ref_d, o.v_ref_q, o.i_ref_d, o.i_ref_q))
             plant.apply_remote(idx, *queue.pop(0))
         plant.step()
-        rec = plant.recorded()
-        rows.append((rec["v_pcc"], rec["q"][idx], o.delta, o.e_mag))
-        if math.isnan(trip_t) and plant.trips[idx].any():
-            trip_t = (k + 1) * case.plant_step_s
+        trip_t = _record(plant, idx, k, case, rows, trip_t, o.delta, o.e_mag)
         if not np.isfinite(rows[-1][0]):
             break
-    res = _stack(rows, case)
-    res["trips"] = plant.trips[idx].copy()
-    res["trip_t"] = trip_t
-    return res
+    return _with_trips(_stack(rows, case), plant, idx, trip_t)
 
 
 def run_law(case: FaultCase = FaultCase(), law: str = "visc", delay_samples: int = 0,
@@ -173,13 +167,23 @@ def run_law(case: FaultCase = FaultCase(), law: str = "visc", delay_samples: int
             queue.append(tuple(out[CTRL_OUTPUTS.index(r)] for r in REMOTE_REFERENCES))
             plant.apply_remote(idx, *queue.pop(0))
         plant.step()
-        rec = plant.recorded()
-        rows.append((rec["v_pcc"], rec["q"][idx], out[CTRL_OUTPUTS.index("delta")], out[CTRL_OUTPUTS.index("e_mag")]))
-        if math.isnan(trip_t) and plant.trips[idx].any():
-            trip_t = (k + 1) * case.plant_step_s
+        trip_t = _record(plant, idx, k, case, rows, trip_t, out[CTRL_OUTPUTS.index("delta")],
+                         out[CTRL_OUTPUTS.index("e_mag")])
         if not np.isfinite(rows[-1][0]):
             break
-    res = _stack(rows, case)
+    return _with_trips(_stack(rows, case), plant, idx, trip_t)
+
+
+def _record(plant, idx, k: int, case: FaultCase, rows: list, trip_t: float, delta, e_mag) -> float:
+    """Step ``k``'s traces appended to ``rows``; the first trip time of the turbines ``idx`` so far [s]."""
+    rec = plant.recorded()
+    rows.append((rec["v_pcc"], rec["q"][idx], delta, e_mag))
+    if math.isnan(trip_t) and plant.trips[idx].any():
+        trip_t = (k + 1) * case.plant_step_s
+    return trip_t
+
+
+def _with_trips(res: dict, plant, idx, trip_t: float) -> dict:
     res["trips"] = plant.trips[idx].copy()
     res["trip_t"] = trip_t
     return res
