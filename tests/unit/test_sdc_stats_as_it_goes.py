@@ -22,6 +22,14 @@ def _stats(path) -> dict:
         return {}
 
 
+def _start_sdc(tmp_path, out):
+    """``sdvisc sdc`` on the loopback, its files in ``out``."""
+    cfg = tmp_path / "sdc1.yaml"
+    cfg.write_text(yaml.safe_dump({"sdc_id": 1, "step_s": 0.00067, "out_dir": str(out), "bind_ip": "127.0.0.1",
+                                   "controller_vip": "127.0.0.1", "realtime_priority": False, "capacity": 4}))
+    return _start(["sdc", "--config", str(cfg)], tmp_path)
+
+
 def test_a_killed_sdc_leaves_the_counts_of_what_it_served(tmp_path):
     try:
         controller = _udp("127.0.0.1", wire.PORT_CONTROLLER)
@@ -29,10 +37,7 @@ def test_a_killed_sdc_leaves_the_counts_of_what_it_served(tmp_path):
     except OSError as exc:
         pytest.skip(f"a port is busy on the loopback: {exc}")
     out = tmp_path / "out"
-    cfg = tmp_path / "sdc1.yaml"
-    cfg.write_text(yaml.safe_dump({"sdc_id": 1, "step_s": 0.00067, "out_dir": str(out), "bind_ip": "127.0.0.1",
-                                   "controller_vip": "127.0.0.1", "realtime_priority": False, "capacity": 4}))
-    proc = _start(["sdc", "--config", str(cfg)], tmp_path)
+    proc = _start_sdc(tmp_path, out)
     stats_file = out / "sdc1_stats.json"
     sent = 40
     try:
@@ -65,10 +70,7 @@ def test_an_sdc_stopped_with_sigterm_replaces_the_snapshot_with_its_full_statist
     except OSError as exc:
         pytest.skip(f"the controller port is busy on the loopback: {exc}")
     out = tmp_path / "out"
-    cfg = tmp_path / "sdc1.yaml"
-    cfg.write_text(yaml.safe_dump({"sdc_id": 1, "step_s": 0.00067, "out_dir": str(out), "bind_ip": "127.0.0.1",
-                                   "controller_vip": "127.0.0.1", "realtime_priority": False, "capacity": 4}))
-    proc = _start(["sdc", "--config", str(cfg)], tmp_path)
+    proc = _start_sdc(tmp_path, out)
     try:
         _until(lambda: (out / "sdc1_ready.json").exists() or proc.poll() is not None, "ready file")
         controller.sendto(_request(wire.Command.START_INSTANCE, 101, 1), ("127.0.0.1", wire.PORT_SDC))
