@@ -106,7 +106,8 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     spc = int(round(1.0 / (F_NOMINAL_HZ * m.h)))
     record_all = every_step or m.record_every_step
     n_rec = n if record_all else n // n_sub
-    v_pcc, v_col = np.zeros((n, 3)), np.zeros((n, 3))
+    v_pcc_rows: list = [None] * n
+    v_col = np.zeros((n, 3))
     v_t, i_c, i_sc = np.zeros((n_rec, nu, 3)), np.zeros((n_rec, nu, 3)), np.zeros((n_rec, 3))
     t_rec = np.zeros(n_rec)
     v_attr, col_attr = built.nodes["pcc"].attr("v"), built.nodes["col"].attr("v")
@@ -120,6 +121,7 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
         sc_ref = built.comps["sc_emf"].attr("V_ref")
     park = frame.park_sample
     poles = _Poles(built)
+    poles_left = poles.i_attr is not None
     gfl = m.gfl
     wt_attr = built.nodes["wt"].attr("v") if gfl is not None else None
     gfl_rows: list[tuple] = []
@@ -133,22 +135,27 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
         sim.start()
         r = 0
+        k_next_event = pending[0][0] if pending else n
         for k in range(n):
-            while pending and pending[0][0] <= k:
-                pending.pop(0)[1](m)
+            if k >= k_next_event:
+                while pending and pending[0][0] <= k:
+                    pending.pop(0)[1](m)
+                k_next_event = pending[0][0] if pending else n
             sim.next()
-            tk = float(t[k])
-            v_pcc[k] = v_attr.get().ravel()
+            v_pcc_rows[k] = v_attr.get()  # the array DPsim returns (3 x 1), stacked after the run
             if col_every_step or every_step:
                 v_col[k] = col_attr.get().ravel()
-            if k_clear is not None and k >= k_clear and v_pcc[k, 0] * v_pcc[k - 1, 0] <= 0.0:
+            if k_clear is not None and k >= k_clear and v_pcc_rows[k][0, 0] * v_pcc_rows[k - 1][0, 0] <= 0.0:
                 built.comps["fault"].open()  # at phase a's current zero, as a breaker (model.py)
                 k_clear = None
-            poles.check(m._opening)
+            if m._opening and poles_left:
+                poles.check(True)
+                poles_left = not all(poles.open)
             at_ts = (k + 1) % n_sub == 0
             exchange_now = every_step or at_ts
             if not (record_all or exchange_now):
                 continue
+            tk = float(t[k])
             t_rec[r] = tk
             for j in range(nu):  # Python floats: numpy scalars' arithmetic is ~3x slower in park_sample
                 va, vb, vc = vt_attr[j].get().ravel().tolist()
@@ -186,7 +193,7 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 continue
             if gfl is not None:
                 if m.wpp is not None:
-                    q = m.wpp.update(tk, abs(park(*v_pcc[k].tolist(), tk)), np.array([gfl.vm]))
+                    q = m.wpp.update(tk, abs(park(*v_pcc_rows[k].ravel().tolist(), tk)), np.array([gfl.vm]))
                     gfl.q_star = gfl.q0 + float(q[0]) - m._q_order0
                 farm_ref.set(conv(gfl.sample(park(*wt_attr.get().ravel().tolist(), tk)) / SQRT3))
                 gfl_rows.append((tk, gfl.theta, gfl.vm, gfl.v_dc, gfl.i_ref_dq, gfl.q_star))
@@ -194,12 +201,14 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 lo = k + 1 - spc
                 v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
                 if m.wpp is not None:
-                    v1_pcc = abs(complex(np.mean(frame.park(v_pcc[lo:k + 1], t[lo:k + 1]))))
+                    v_cycle = np.array(v_pcc_rows[lo:k + 1])[:, :, 0]
+                    v1_pcc = abs(complex(np.mean(frame.park(v_cycle, t[lo:k + 1]))))
                     q = float(m.wpp.update(tk, v1_pcc))
                     m.farm.s = complex(m.farm.s.real, m._q_farm0 + (q - m._q_order0) * m._q_scale)
                 farm_ref.set(conv(m.farm.current(v1, tk) / SQRT3))
         sim.stop()
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+    v_pcc = np.array(v_pcc_rows, dtype=float).reshape(n, 3)
     out = {"t": t, "h": m.h, "spc": spc, "v_pcc_abc": v_pcc, "v_col_abc": v_col, "v_t_abc": v_t, "i_abc": i_c,
            "i_sc_abc": i_sc, "wall_s": wall, "cpu_s": cpu, "k_unit": c.k_unit, "t_ts": t_rec,
            "exchange": m.exchange}
