@@ -108,6 +108,7 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     n_rec = n if record_all else n // n_sub
     v_pcc_rows: list = [None] * n
     v_col = np.zeros((n, 3))
+    v_pcc_np = np.zeros((n, 3)) if m.gfl is None or every_step else None  # the injection's one-cycle means
     v_t, i_c, i_sc = np.zeros((n_rec, nu, 3)), np.zeros((n_rec, nu, 3)), np.zeros((n_rec, 3))
     t_rec = np.zeros(n_rec)
     v_attr, col_attr = built.nodes["pcc"].attr("v"), built.nodes["col"].attr("v")
@@ -145,6 +146,7 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
             v_pcc_rows[k] = v_attr.get()  # the array DPsim returns (3 x 1), stacked after the run
             if col_every_step or every_step:
                 v_col[k] = col_attr.get().ravel()
+                v_pcc_np[k] = v_pcc_rows[k].ravel()
             if k_clear is not None and k >= k_clear and v_pcc_rows[k][0, 0] * v_pcc_rows[k - 1][0, 0] <= 0.0:
                 built.comps["fault"].open()  # at phase a's current zero, as a breaker (model.py)
                 k_clear = None
@@ -201,8 +203,7 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 lo = k + 1 - spc
                 v1 = complex(np.mean(frame.park(v_col[lo:k + 1], t[lo:k + 1])))
                 if m.wpp is not None:
-                    v_cycle = np.array(v_pcc_rows[lo:k + 1])[:, :, 0]
-                    v1_pcc = abs(complex(np.mean(frame.park(v_cycle, t[lo:k + 1]))))
+                    v1_pcc = abs(complex(np.mean(frame.park(v_pcc_np[lo:k + 1], t[lo:k + 1]))))
                     q = float(m.wpp.update(tk, v1_pcc))
                     m.farm.s = complex(m.farm.s.real, m._q_farm0 + (q - m._q_order0) * m._q_scale)
                 farm_ref.set(conv(m.farm.current(v1, tk) / SQRT3))
