@@ -4,11 +4,11 @@ configuration and its decisions — datagrams and ``now`` in; datagrams and coun
 Nothing here opens a socket, sleeps, reads a clock or writes a file: :meth:`CardCore.receive` takes
 one datagram that arrived on a turbine's port with ``now`` (the card clock's reading, s) and
 :meth:`CardCore.step` returns the datagrams to send. The socket shim and ``main`` are in
-:mod:`plant.gtnet_card` (as :mod:`plant.service` is the shim of :mod:`plant.service_core`).
+:mod:`plant.card` (as :mod:`plant.service` is the shim of :mod:`plant.service.core`).
 
 Each turbine is one UDP port on the card's IP: its MEAS and AK leave from that port, its CTRL and
 commands arrive on it. The turbines are a :class:`plant.minimal.MinimalPlant`. Admission follows the
-plant's rules (:mod:`plant.endpoint_rx`): a ``REQUEST`` (``STREAM_START``/``STREAM_STOP``) only from
+plant's rules (:mod:`plant.service.endpoint_rx`): a ``REQUEST`` (``STREAM_START``/``STREAM_STOP``) only from
 the SDN app's virtual IP; a ``CTRL`` only from the SDC named by ``STREAM_START`` or the card's fixed
 remote (``sdc``), for the turbine of its port, answering a MEAS already sent, with plausible
 references; a duplicate or overtaken ``CTRL`` is ``ctrl_stale``. Everything else is dropped and
@@ -26,11 +26,11 @@ from typing import Literal
 import numpy as np
 from pydantic import BaseModel, Field, field_validator, model_validator
 
-from plant.endpoint_rx import MAX_REF_PU, TURBINE_COMMANDS, is_unicast_word
-from plant.endpoint_tx import MeasPacker
-from plant.gtnet_card_faults import Misbehaviour, bad_datagrams
+from plant.card.faults import Misbehaviour, bad_datagrams
 from plant.minimal import MinimalPlant
-from plant.service_core import CTRL_GAP_STEPS, MAX_CTRL_GAPS
+from plant.service.core import CTRL_GAP_STEPS, MAX_CTRL_GAPS
+from plant.service.endpoint_rx import MAX_REF_PU, TURBINE_COMMANDS, is_unicast_word
+from plant.service.endpoint_tx import MeasPacker
 from sdvisc import wire
 from sdvisc.config import (
     CONTROLLER_VIP,
@@ -52,7 +52,7 @@ REASONS: tuple[str, ...] = wire.REJECT_REASONS + (
 unknown msg_type, ``nonfinite``, ``range``, ``field``), ``flood`` (beyond ``flood_limit_per_step`` on
 its port in one step, not decoded), ``unexpected_type`` (not CTRL/REQUEST), ``unknown_turbine`` (a
 ``wt`` no port of the card has), ``wrong_turbine`` (another port's turbine), ``not_from_controller``,
-``bad_request``, ``not_from_sdc``, ``future_seq``, ``out_of_range`` (as :mod:`plant.endpoint_rx`),
+``bad_request``, ``not_from_sdc``, ``future_seq``, ``out_of_range`` (as :mod:`plant.service.endpoint_rx`),
 ``internal`` (handling it raised: a bug, counted, the card goes on)."""
 
 COUNTERS = ("meas_tx", "ctrl_rx", "ctrl_stale", "ak_tx", "ak_ones", "commands_rx", "tx_error", "meas_unencodable",
@@ -100,7 +100,7 @@ class RemoteAddress(_Strict):
 
 
 class GtnetCardConfig(ClockSettings, OutputDir):
-    """``python -m plant.gtnet_card --config FILE`` (YAML or JSON)."""
+    """``python -m plant.card.emulator --config FILE`` (YAML or JSON)."""
 
     step_s: StepSeconds
     bind_ip: str = Field("0.0.0.0", description="the card's IP address: every turbine port is bound to it")
@@ -123,7 +123,7 @@ class GtnetCardConfig(ClockSettings, OutputDir):
         "datagrams one port takes per step; the rest of that step's arrivals are dropped (flood)"))
     spin_us: float = _same_as(ImpairNodeConfig, "spin_us")
     misbehave: list[Misbehaviour] = Field(default_factory=list, description=(
-        "bursts of bad datagrams toward the SDC, on purpose (plant.gtnet_card_faults): a faulty card"))
+        "bursts of bad datagrams toward the SDC, on purpose (plant.card.faults): a faulty card"))
 
     @field_validator("bind_ip", "controller_vip")
     @classmethod

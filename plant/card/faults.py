@@ -1,4 +1,4 @@
-"""A faulty card, on purpose: bad datagrams the emulated GTNET-SKT card (:mod:`plant.gtnet_card_core`)
+"""A faulty card, on purpose: bad datagrams the emulated GTNET-SKT card (:mod:`plant.card.core`)
 sends toward its SDC when its configuration asks for them (``misbehave``), so that a run can check
 that the testbed rejects and counts bad input from an external device and that the other turbines'
 control goes on (issue 29, 4c). Pure: the datagrams are built here, the core sends them.

@@ -2,22 +2,22 @@
 every turbine's GTNET-SKT endpoint from inside that turbine's Mininet host.
 
 ``python -m plant.service --config FILE`` (the runner writes FILE). What the turbines do with the
-packets is the pure core, :class:`plant.service_core.PlantCore`: a turbine starts streaming
+packets is the pure core, :class:`plant.service.core.PlantCore`: a turbine starts streaming
 measurements to its SDC only when the SDN application tells it to (``REQUEST STREAM_START``, which
 also names the SDC); from then on, each step it sends one ``MEAS``, applies the newest ``CTRL`` it
 received (hold last value; fall back after the model's loss time), and reports ``AK`` (1 when a
 ``CTRL`` arrived within ``ak_window_s``) to the SDN application every ``ak_period_s`` and at once
 whenever it changes. Malformed, unexpected or implausible packets are dropped and counted by
-reason, never applied (:mod:`plant.endpoint_rx`); a MEAS the wire cannot carry (a non-finite value
-of a diverged model) is counted (``meas_unencodable``) and not sent (:mod:`plant.endpoint_tx`).
+reason, never applied (:mod:`plant.service.endpoint_rx`); a MEAS the wire cannot carry (a non-finite value
+of a diverged model) is counted (``meas_unencodable``) and not sent (:mod:`plant.service.endpoint_tx`).
 
 The model is whatever ``plant.model`` names, behind one interface (:class:`plant.backend.PlantBackend`:
 the phasor farm, the infinite bus, the EMT arrangement on DPsim). This module is the shim around it: per turbine one UDP socket in the turbine host's network
 namespace (bound to the turbine IP, port ``wire.PORT_TURBINE``), the loop paced to the run's clock
 (wall or virtual), the scenario events arriving as JSON lines on stdin (``{"type": "stop"}`` ends
 the run; without ``duration_s`` the plant runs until then), the recorder (``timeseries.csv``), the
-live status and event files (:mod:`plant.live`), signals, and ``plant_stats.json`` at the end
-(:mod:`plant.service_summary`).
+live status and event files (:mod:`plant.service.live`), signals, and ``plant_stats.json`` at the end
+(:mod:`plant.service.summary`).
 """
 
 from __future__ import annotations
@@ -30,11 +30,11 @@ import time
 from pathlib import Path
 
 from plant.backend import close_backend
-from plant.live import STATUS_EVERY_S, LivePublisher
-from plant.recorder import Recorder
-from plant.service_core import CTRL_GAP_STEPS, RTT_BINS, Endpoint, Pacing, PlantCore  # noqa: F401 (re-exported)
-from plant.service_model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
-from plant.service_summary import summarise
+from plant.service.core import CTRL_GAP_STEPS, RTT_BINS, Endpoint, Pacing, PlantCore  # noqa: F401 (re-exported)
+from plant.service.live import STATUS_EVERY_S, LivePublisher
+from plant.service.model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
+from plant.service.recorder import Recorder
+from plant.service.summary import summarise
 from sdvisc import wire
 from sdvisc.config import PlantConfig, service_config
 from sdvisc.jsonlines import JsonLineReader, write_json_atomic
@@ -43,7 +43,7 @@ from sdvisc.netns import raise_priority, udp_socket_in
 
 class PlantService:
     """The sockets, the paced loop and the files around the turbines' core (``self.core``, a
-    :class:`~plant.service_core.PlantCore`)."""
+    :class:`~plant.service.core.PlantCore`)."""
 
     def __init__(self, cfg: PlantConfig) -> None:
         self.cfg = cfg
@@ -128,7 +128,7 @@ class PlantService:
         self.cpu_s = time.process_time() - cpu_at_start  # from t = 0: what the paced loop cost
 
     def summary(self) -> dict:
-        """What plant_stats.json holds (:func:`plant.service_summary.summarise`)."""
+        """What plant_stats.json holds (:func:`plant.service.summary.summarise`)."""
         return summarise(self.core, self.pacing, self.recorder.extremes(), scheduling=self.scheduling,
                          cpu_s=self.cpu_s)
 
@@ -160,6 +160,3 @@ def main(argv: list[str] | None = None) -> int:
         (Path(cfg.out_dir) / "plant_stats.json").write_text(json.dumps(service.summary(), indent=1))
     return 0
 
-
-if __name__ == "__main__":
-    sys.exit(main())

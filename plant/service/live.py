@@ -77,7 +77,7 @@ class LivePublisher:
     def write_status(self, core, now: float, late_steps: int) -> None:
         """Replace ``plant_status.json`` (compact JSON, one write and a rename in a background thread:
         a reader never sees half a file, the paced loop never waits for the disk) with the state of
-        ``core`` (a :class:`plant.service_core.PlantCore`; ``late_steps``: the paced loop's).
+        ``core`` (a :class:`plant.service.core.PlantCore`; ``late_steps``: the paced loop's).
         Turbines that never sent or received a packet are left out (a 50-turbine farm with a few
         ViSC turbines stays small)."""
         endpoints = core.endpoints

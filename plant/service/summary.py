@@ -3,14 +3,14 @@ turbine's packet counts, gaps, one-way delays and round trips in samples, the ba
 
 from __future__ import annotations
 
-from plant import endpoint_rx
+from plant.service import endpoint_rx
 from sdvisc.stats import delay_summary
 
 
 def summarise(core, pacing, extremes: dict, *, scheduling: str = "default", cpu_s: float = 0.0) -> dict:
-    """The plant service's stats after its run: ``core`` (a :class:`plant.service_core.PlantCore`),
-    ``pacing`` (its loop's :class:`plant.service_core.Pacing`), ``extremes`` (the recorder's,
-    :meth:`plant.recorder.Recorder.extremes`), the loop's ``scheduling`` and process CPU ``cpu_s``."""
+    """The plant service's stats after its run: ``core`` (a :class:`plant.service.core.PlantCore`),
+    ``pacing`` (its loop's :class:`plant.service.core.Pacing`), ``extremes`` (the recorder's,
+    :meth:`plant.service.recorder.Recorder.extremes`), the loop's ``scheduling`` and process CPU ``cpu_s``."""
     model, endpoints = core.model, core.endpoints
     return {
         "steps": core.k,

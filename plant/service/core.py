@@ -16,7 +16,7 @@ streaming turbine's ``MEAS`` is returned, followed by its ``AK`` (1 when a ``CTR
 once when a loss has lasted ``report_loss_after_s``. Returned datagrams are counted as sent
 (``meas_tx``, ``ak_tx``); the shim reports one the socket refused with
 :meth:`PlantCore.send_failed`. Events (stream start/stop, scenario events, the control-packet
-events of :mod:`plant.live`) go to the injected :class:`plant.live.LivePublisher` (without an
+events of :mod:`plant.service.live`) go to the injected :class:`plant.service.live.LivePublisher` (without an
 output directory it only collects them).
 """
 
@@ -26,10 +26,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plant import endpoint_rx
-from plant.endpoint_tx import MeasPacker
-from plant.live import LivePublisher
-from plant.service_model import apply_set, farm_index
+from plant.service import endpoint_rx
+from plant.service.endpoint_tx import MeasPacker
+from plant.service.live import LivePublisher
+from plant.service.model import apply_set, farm_index
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS
 
@@ -72,7 +72,7 @@ class Endpoint:
     # CTRL answers by round trip in samples: [1, 2, …, RTT_BINS-1, more] (1 = applied in the step
     # right after the MEAS it answers: the paper's one-sample loop delay)
     rtt_samples: list = field(default_factory=lambda: [0] * RTT_BINS)
-    awaiting_first_ctrl: bool = False  # streaming started, no control packet yet (plant.live)
+    awaiting_first_ctrl: bool = False  # streaming started, no control packet yet (plant.service.live)
     stream_started_wall: float = 0.0
     ctrl_lost_reported: bool = False
     live_delay: list = field(default_factory=lambda: [0.0, 0])  # sum (ms) and count since the last status
@@ -105,7 +105,7 @@ class PlantCore:
     """The turbines' endpoints around the plant model; see the module docstring.
 
     ``cfg``: the service's :class:`sdvisc.config.PlantConfig` (read once here); ``model``: the
-    plant model, a :class:`plant.backend.PlantBackend` (:func:`plant.service_model.build_model`), and
+    plant model, a :class:`plant.backend.PlantBackend` (:func:`plant.service.model.build_model`), and
     ``indices`` its index of each of
     ``cfg.turbines``; ``live``: where events go (default: collected only, no files).
     """
@@ -119,7 +119,7 @@ class PlantCore:
         self.ak_every = max(1, int(round(cfg.ak_period_s / self.step_s)))
         self.ak_window_s = cfg.ak_window_s
         self.report_loss_after_s = cfg.report_loss_after_s
-        self.check_rx_source = cfg.check_rx_source  # see plant.endpoint_rx
+        self.check_rx_source = cfg.check_rx_source  # see plant.service.endpoint_rx
         self.model = model
         self.endpoints = [Endpoint(t.name, t.wid, index) for t, index in zip(cfg.turbines, indices)]
         self.streaming: list[Endpoint] = []  # the endpoints streaming, in endpoint order (kept by _on_request)
@@ -137,7 +137,7 @@ class PlantCore:
     # ------------------------------------------------------------------ receive
     def receive(self, ep: Endpoint, data: bytes, addr, now: float) -> None:
         """One datagram that arrived on ``ep``'s socket from ``addr`` (ip, port) at ``now``. Never
-        raises: whatever is not accepted is counted (:mod:`plant.endpoint_rx`), and so is a
+        raises: whatever is not accepted is counted (:mod:`plant.service.endpoint_rx`), and so is a
         datagram whose handling raised (``rx_reject_internal``)."""
         try:
             action, msg = endpoint_rx.receive(ep, data, addr, header=self.header, controller_ip=self.vip,
@@ -156,7 +156,7 @@ class PlantCore:
         ep.counts["rx_socket_error"] = ep.counts.get("rx_socket_error", 0) + 1
 
     def _on_ctrl(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
-        """Account for one CTRL that :func:`plant.endpoint_rx.receive` accepted (the newest so far)."""
+        """Account for one CTRL that :func:`plant.service.endpoint_rx.receive` accepted (the newest so far)."""
         ep.counts["ctrl_rx"] += 1
         rtt = ep.meas_seq - int(msg["meas_seq"])  # 0: answers the MEAS sent at the end of the last step
         ep.rtt_samples[min(max(rtt, 0), RTT_BINS - 1)] += 1
@@ -190,7 +190,7 @@ class PlantCore:
         ep.ctrl_own_seq = own_seq
 
     def _on_request(self, ep: Endpoint, msg: wire.Message, now: float) -> None:
-        """Carry out a STREAM_START/STREAM_STOP that :func:`plant.endpoint_rx.receive` accepted."""
+        """Carry out a STREAM_START/STREAM_STOP that :func:`plant.service.endpoint_rx.receive` accepted."""
         ep.counts["requests_rx"] += 1
         cmd = msg["cmd"]
         t_sim = self.k * self.step_s

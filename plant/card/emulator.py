@@ -2,11 +2,11 @@
 program of its own in place of the testbed's plant (``docs/wire-format.md``, "The project's
 GTNET-SKT card emulator").
 
-``python -m plant.gtnet_card --config FILE`` (YAML or JSON, :class:`GtnetCardConfig`). One UDP socket
+``python -m plant.card.emulator --config FILE`` (YAML or JSON, :class:`GtnetCardConfig`). One UDP socket
 per turbine, bound to ``bind_ip`` and the turbine's port; a loop paced at ``step_s`` by its own
 monotonic clock (step k at t0 + k·step_s·time_scale wall seconds; it sleeps to each deadline, spinning
 only the last ``spin_us``); each step it reads everything waiting on every socket, hands it to
-:class:`plant.gtnet_card_core.CardCore` (the decisions, pure code) and sends what the core returns.
+:class:`plant.card.core.CardCore` (the decisions, pure code) and sends what the core returns.
 ``gtnet_card_ready.json`` is written in ``out_dir`` once the sockets are bound, ``gtnet_card_stats.json``
 at the end (SIGTERM, SIGINT or ``duration_s``). An invalid configuration ends it with status 2 and a
 :class:`sdvisc.config.ConfigError` naming the file, the key and the problem.
@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from plant.gtnet_card_core import CardCore, GtnetCardConfig  # noqa: F401 (GtnetCardConfig re-exported)
+from plant.card.core import CardCore, GtnetCardConfig  # noqa: F401 (GtnetCardConfig re-exported)
 from sdvisc.config import ConfigError, load_config
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.latest_writer import LatestWriter
@@ -153,7 +153,7 @@ class GtnetCard:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="python -m plant.gtnet_card", description=__doc__.split("\n\n")[0])
+    parser = argparse.ArgumentParser(prog="python -m plant.card.emulator", description=__doc__.split("\n\n")[0])
     parser.add_argument("--config", required=True, help="the card's configuration, YAML or JSON")
     args = parser.parse_args(argv)
     try:
@@ -179,6 +179,7 @@ def main(argv: list[str] | None = None) -> int:
         card.close()
         write_json_atomic(out_dir / STATS_FILE, card.summary())
     return 0
+
 
 
 if __name__ == "__main__":
