@@ -2,7 +2,7 @@
 per simulated second offline, and the time scale ``auto`` picked for runs through the network.
 
 Offline (this process, nothing paced): F6's timeline (SLG fault 1.0-1.2 s) for ``SIM_S`` simulated
-seconds on the plant service's core (plant.service_core.PlantCore) over the EMT backend,
+seconds on the plant service's core (plant.service.core.PlantCore) over the EMT backend,
 
 * ``backend_own_law``: the backend alone, its SDViSC on its own law at every circuit step (no stream);
 * ``service_sdc_loop``: the unit streaming, every MEAS answered by the SDC's Tustin law in-process through

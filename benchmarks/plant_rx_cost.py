@@ -1,5 +1,5 @@
 """CPU per plant-service step around the model, without sockets: the plant service's pure core
-(:class:`plant.service_core.PlantCore`, full 50-turbine farm, every turbine streaming as after
+(:class:`plant.service.core.PlantCore`, full 50-turbine farm, every turbine streaming as after
 all_visc_50's requests) receives one CTRL per turbine (``receive``: decode, checks, bookkeeping) and
 steps (``step``: the CTRLs applied, the model, every MEAS packed, the AKs due). Process CPU over
 ``STEPS`` steps after ``WARM_UP``; one JSON line. For before/after pairs with farm-bench:
@@ -26,8 +26,8 @@ SDC_IP = "10.0.0.21"
 def main(checkout: str) -> None:
     sys.path.insert(0, checkout)  # the checkout whose plant core is measured
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
-    from plant.service_core import PlantCore
-    from plant.service_model import build_model
+    from plant.service.core import PlantCore
+    from plant.service.model import build_model
     from sdvisc import wire
     from sdvisc.config import PlantConfig
 

@@ -62,7 +62,7 @@ def _rate(p: Plant, t_sim: float) -> float:
 
 
 def _service_plant(remote_idx: np.ndarray) -> Plant:
-    """50 turbines as the plant service builds its full model (plant/service_model.py) with the
+    """50 turbines as the plant service builds its full model (plant/service/model.py) with the
     PlantConfig defaults a scenario does not override: remote turbines track the received current
     reference (``remote_apply``) and fall back after ``remote_loss_fallback_s``; ``remote_idx`` remote."""
     fields = PlantConfig.model_fields
@@ -76,7 +76,7 @@ def _service_plant(remote_idx: np.ndarray) -> Plant:
 
 def _rate_applied(p: Plant, idx: np.ndarray, t_sim: float) -> tuple[float, float]:
     """As _rate, with the remote turbines ``idx`` getting new references every step as the plant
-    service's core (``PlantCore.step`` in plant/service_core.py) does with each step's CTRL packets:
+    service's core (``PlantCore.step`` in plant/service/core.py) does with each step's CTRL packets:
     ``apply_remote`` with an ``intp`` index array and ``float64`` references, ``step()``, then
     ``measurements()`` for the MEAS; the references answer the last measurements (current
     reference the measured current, voltage reference the measured terminal voltage, unused with

@@ -5,7 +5,7 @@ wt2_1, wt3_1, wt4_1 on the full 500 MW farm, ``remote_apply: v_ref``, the SDC ov
 from a temporary copy recording every step, at ``--time-scale`` (default ``auto``), with
 :func:`scenarios.runner.run_scenario` (needs root; run the benchmark under the network lock). Then,
 under the run's own conditions (:mod:`plant.cosim_service`: start, fault steps, START parameters,
-float32 wire values, read back by :mod:`plant.run_record`):
+float32 wire values, read back by :mod:`plant.service.run_record`):
 
 * ``offline_median_rtt``: the offline co-simulation with the run's median MEAS→CTRL round trip
   for every step (normally 1 sample: the answer to the last MEAS drives the next step);
@@ -30,7 +30,7 @@ import numpy as np
 import yaml
 
 from plant.cosim_service import compare_window, run_service_hd, run_service_sdc
-from plant.run_record import read_run
+from plant.service.run_record import read_run
 from scenarios.loader import load_scenario
 from scenarios.runner import run_scenario
 

@@ -1,10 +1,10 @@
 """The one interface between the plant service and a plant model (issue 40 item 6).
 
-The plant service (plant/service.py, plant/service_core.py, the recorder plant/recorder.py, the
+The plant service (plant/service/main.py, plant/service/core.py, the recorder plant/service/recorder.py, the
 calibration's pilot scenarios/calibrate.py) drives a model only through :class:`PlantBackend`; the phasor
 farm (:class:`plant.sim.Plant`), the infinite-bus model (:class:`plant.minimal.MinimalPlant`) and the EMT
 arrangement on DPsim (:class:`plant.emt.service_backend.EmtServiceBackend`) implement it, chosen by
-``plant.model`` in :func:`plant.service_model.build_model` (which also builds them: the constructor is
+``plant.model`` in :func:`plant.service.model.build_model` (which also builds them: the constructor is
 the "init"). Scenario events reach a model through optional methods that plant/settable.py reads off
 its class (``fault``, ``load_step``, ``set_scr``, ``set_<param>``/``get_<param>``), so ``sdvisc check``
 refuses what a model cannot apply; :func:`close_backend` releases what one holds (DPsim's simulation).

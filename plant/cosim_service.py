@@ -4,7 +4,7 @@
 controller initialised at t = 0). A network run (``scenarios/fault_4visc_network.yaml``) starts
 differently; this module reproduces what the service path does, step by step, without a network:
 
-* the model is the one :func:`plant.service.build_model` builds: ``PlantParams()`` with
+* the model is the one :func:`plant.service.model.build_model` builds: ``PlantParams()`` with
   ``remote_apply = "v_ref"``, 50 turbines, all grid-following on the MPPT curve from t = 0 (wind
   12 m/s, above rated: P = 1 p.u.), the remote-loss fall-back and the over-current trip enabled;
 * a ViSC turbine switches to ``remote`` when its ``STREAM_START`` arrives, in the plant's iteration

@@ -122,7 +122,7 @@ class MinimalPlant:
         return self.recorded()
 
     def recorded(self) -> dict[str, np.ndarray | float]:
-        """What ``timeseries.csv`` holds (plant.recorder), as :meth:`plant.sim.Plant.recorded`."""
+        """What ``timeseries.csv`` holds (plant.service.recorder), as :meth:`plant.sim.Plant.recorded`."""
         m = self.measurements()
         return {"t": self.t, "v_pcc": abs(self.v_grid), "f_pcc_hz": F_NOMINAL_HZ, "p": m["p"], "q": m["q"],
                 "i_mag": np.abs(self.i), "mode": self.mode.copy()}

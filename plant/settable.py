@@ -1,6 +1,6 @@
 """What a scenario may ask of each plant model, read from the model classes themselves.
 
-The plant service (``PlantCore.apply_event`` in plant/service_core.py) applies a timeline ``set`` action as
+The plant service (``PlantCore.apply_event`` in plant/service/core.py) applies a timeline ``set`` action as
 ``getattr(model, f"set_{param}")(value)`` with one number (or, with a ``delta``,
 ``set_<param>(get_<param>() + delta)``), and ``load_step``/``fault``/``scr`` by
 calling ``load_step``/``fault``/``set_scr``. ``sdvisc check`` uses these helpers to reject, before a
@@ -12,7 +12,7 @@ from __future__ import annotations
 import importlib
 import inspect
 
-# plant.model value -> (module, class); the same choice as plant/service.py build_model
+# plant.model value -> (module, class); the same choice as plant/service/main.py build_model
 MODELS = {"minimal": ("plant.minimal", "MinimalPlant"), "full": ("plant.sim", "Plant"),
           "emt": ("plant.emt.service_backend", "EmtServiceBackend")}
 # timeline action -> the model method the plant service calls for it

@@ -256,7 +256,7 @@ class Plant(Commands, RightHandSide, SteadyState):
         return dict(m)
 
     def recorded(self) -> dict:
-        """What ``timeseries.csv`` holds (plant.recorder): ``t``, ``v_pcc``, ``f_pcc_hz`` and per
+        """What ``timeseries.csv`` holds (plant.service.recorder): ``t``, ``v_pcc``, ``f_pcc_hz`` and per
         turbine ``p``, ``q``, ``i_mag``, ``mode``, ``soc``, ``p_batt`` (units as in :meth:`outputs`, which
         includes these), from the present evaluation only: no full node-voltage solve, no fault
         sequences (benchmarks/plant_speed.py ``recorder_50wt_4remote``: its cost against outputs())."""

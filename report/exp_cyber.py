@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from plant.cosim_service import compare_window, run_service_hd
-from plant.run_record import read_run
+from plant.service.run_record import read_run
 from plant.turbine import REMOTE
 from report import figures, net_arrangement, network_runs
 from report.exp_grid_net import terminal_voltage

@@ -7,7 +7,7 @@ first, stopping at the first that passes), the runner plays a pilot of the run i
   paced at k·Ts in the runner's process at the plant service's scheduling (SCHED_FIFO where
   allowed: :mod:`scenarios.calibration_probe`; the same model code the plant service runs), and each
   step one real MEAS per ViSC turbine (the model's own measurements, GTNET header, packed by the
-  service's own :class:`plant.endpoint_tx.MeasPacker`) sent from that turbine's namespace; the step's compute (model, encoding, sending, reading the CTRLs) is timed and
+  service's own :class:`plant.service.endpoint_tx.MeasPacker`) sent from that turbine's namespace; the step's compute (model, encoding, sending, reading the CTRLs) is timed and
   its busy fraction is cost / (k·Ts);
 * **the SDC**: the real SDC service (:mod:`sdc_unit.pilot`: :class:`sdc_unit.service.SdcService`
   with the run's configuration, one instance per ViSC turbine) on the primary SDC's host answers
@@ -41,7 +41,7 @@ from functools import partial
 import networkx as nx
 import numpy as np
 
-from plant.service import build_model
+from plant.service.model import build_model
 from scenarios import configs
 from scenarios.calibration_probe import PilotSetup, plant_scheduling, probe
 from scenarios.calibration_report import candidates, closeness

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from plant.endpoint_tx import MeasPacker
+from plant.service.endpoint_tx import MeasPacker
 from sdvisc import rxstamp, wire
 from sdvisc.netns import raise_priority
 from sdvisc.vocabulary import FILTER_R_F_PU, FILTER_X_F_PU, MEAS_FIELDS

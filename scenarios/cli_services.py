@@ -48,8 +48,8 @@ SERVICES = {
     "owfcc": Service("owfcc.service", "OwfccConfig", "run the OWFCC from its config file (outside Mininet)",
                      "the OWFCC: sends the ViSC requests of its schedule and of its command socket (sdvisc "
                      "owfcc-send); writes owfcc_events.jsonl, and owfcc_stats.json when stopped (SIGTERM)"),
-    "gtnet-card": Service("plant.gtnet_card", "", "run the project's GTNET-SKT card emulator (in place of an RTDS)",
-                          "the project's GTNET-SKT card emulator (plant/gtnet_card.py): stands in for an RTDS with "
+    "gtnet-card": Service("plant.card.emulator", "", "run the project's GTNET-SKT card emulator (in place of an RTDS)",
+                          "the project's GTNET-SKT card emulator (plant/card/emulator.py): stands in for an RTDS with "
                           "GTNET-SKT cards, one UDP port per turbine; writes gtnet_card_ready.json and "
                           "gtnet_card_stats.json"),
 }

@@ -196,7 +196,7 @@ class ExternalDevices:
 
     # ------------------------------------------------------------------ 5. the emulated card
     def peer_config(self, sdc_ip: str, out_dir: str, clock: dict, duration_s: float | None) -> dict:
-        """The card emulator's configuration (:mod:`plant.gtnet_card`), as the lab would set up a card."""
+        """The card emulator's configuration (:mod:`plant.card`), as the lab would set up a card."""
         sc = self.scenario
         return {**clock, "out_dir": out_dir, "step_s": sc.step_s, "bind_ip": self.peer.ip,
                 "framing": self.peer.framing, "controller_vip": CONTROLLER_VIP, "stream": self.peer.stream,
@@ -217,7 +217,7 @@ class ExternalDevices:
         duration = None if run.session is not None else self.scenario.duration_s
         path = run.out / "peer_config.json"
         path.write_text(json.dumps(self.peer_config(sdc_ip, str(run.out), run.clock_settings, duration), indent=1))
-        run.processes.start("plant", ["ip", "netns", "exec", PEER_NETNS, run.python, "-m", "plant.gtnet_card",
+        run.processes.start("plant", ["ip", "netns", "exec", PEER_NETNS, run.python, "-m", "plant.card.emulator",
                                       "--config", str(path)])
         ready = run.processes.wait_ready("plant", "gtnet_card_ready.json", "the GTNET-SKT card emulator")
         return float(ready.get("t0_wall") or run.clock.now())

@@ -5,7 +5,7 @@ switches of the topology that Mininet does not build (``topology.external_switch
 A lab's device is reached through a host interface attached to a Mininet switch (Mininet's ``Intf``
 on a named interface: a physical NIC cabled to the device). With ``emulate: true`` (the default, and
 what the tests use) the run makes the device's stand-in on this machine: a veth pair whose far end
-is the card emulator's namespace (:mod:`plant.gtnet_card`) or a port of a plain Open vSwitch bridge
+is the card emulator's namespace (:mod:`plant.card`) or a port of a plain Open vSwitch bridge
 created with ``ovs-vsctl`` (its own datapath id, no Mininet object), and removes it at the end.
 """
 
@@ -16,7 +16,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
 
-from plant.gtnet_card_faults import Misbehaviour
+from plant.card.faults import Misbehaviour
 from sdvisc.config import TurbineName
 
 MAC_PATTERN = r"^[0-9a-f]{2}(:[0-9a-f]{2}){5}$"
@@ -48,9 +48,9 @@ class PeerSpec(_Strict):
         "emulate only: on_request = MEAS after the SDN app's STREAM_START (as the testbed's plant); always = "
         "from the start to sdc1 (a card whose draft enables it permanently: the switches drop what no path carries)"))
     emulate: bool = Field(True, description=(
-        "run the project's card emulator (python -m plant.gtnet_card) in a namespace of its own behind a veth"))
+        "run the project's card emulator (python -m plant.card.emulator) in a namespace of its own behind a veth"))
     misbehave: list[Misbehaviour] = Field(default_factory=list, description=(
-        "emulate only: bursts of bad datagrams the card sends on purpose (plant.gtnet_card_faults: wrong word "
+        "emulate only: bursts of bad datagrams the card sends on purpose (plant.card.faults: wrong word "
         "count, unknown turbine, flood) - a faulty device, to check what the testbed rejects and counts"))
 
     @field_validator("ip")

@@ -7,7 +7,7 @@ the lines to show a person, e.g.::
     wt1_1: control lost at 14.81 s; DR at 14.85 s; new path sdc1-s1-s4-l2-wt1_1; restored after 63 ms
 
 A loss of a ViSC turbine's control packets (the plant's ``ctrl_lost``/``ctrl_restored``,
-:mod:`plant.live`) is followed from its start to its end, with the SDN app's reactions in between
+:mod:`plant.service.live`) is followed from its start to its end, with the SDN app's reactions in between
 (``dr``, ``port_status``, ``sdc_failover``, ``no_path``, ``path_restored``, ``dr_not_acted``);
 ``restored after`` counts from the action that caused it (a ``link_down``, ``kill`` or
 ``impair`` just before), else from the loss. A loss still open after ``follow_s`` is reported
@@ -23,7 +23,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from plant.live import LOSS_REPORT_S
+from plant.service.live import LOSS_REPORT_S
 
 FOLLOW_S = 2.0  # a loss not restored this long after it started is reported as such
 QUIET_S = 0.5  # an action followed by no loss for this long is reported as harmless

@@ -38,7 +38,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from plant.service import CTRL_GAP_STEPS as GAP_MIN_STEPS  # the plant records pauses longer than this (steps)
+from plant.service.core import (
+    CTRL_GAP_STEPS as GAP_MIN_STEPS,  # the plant records pauses longer than this (steps)
+)
 
 FAULT_TYPES = ("link_down", "kill", "server_down")
 RESTORE_TYPES = ("link_up", "restore_links")

@@ -9,7 +9,7 @@ the interface cabled to it: the run captures it with ``tcpdump`` (:func:`start`:
 * ``meas_tx``: MEAS the card put on its link; ``ctrl_rx``: CTRL delivered to its link; ``ak_tx`` and
   ``ak_ones``: its AKs (all, and those with ``ak`` = 1);
 * ``ctrl_gaps_wall``: every pause between two CTRL longer than the plant's threshold
-  (:data:`plant.service_core.CTRL_GAP_STEPS` samples), ``last_ctrl_wall``, ``first_ctrl_rx_t`` and
+  (:data:`plant.service.core.CTRL_GAP_STEPS` samples), ``last_ctrl_wall``, ``first_ctrl_rx_t`` and
   ``last_ctrl_rx_t``: from the capture's timestamps (the kernel's receive time on the interface, µs)
   on the run's clock. A pause is measured at the card's cable, to the microsecond, not to a plant
   step (the card's own reading of a CTRL comes after its next step begins, up to one Ts later);
@@ -29,7 +29,7 @@ import sys
 from collections.abc import Iterable, Iterator
 from pathlib import Path
 
-from plant.service_core import CTRL_GAP_STEPS
+from plant.service.core import CTRL_GAP_STEPS
 from sdvisc import wire
 
 PCAP = "peer_tap.pcap"

@@ -1,6 +1,6 @@
 """The EMT comparison arrangement as a backend of the plant service (``plant.model: emt``).
 
-The plant service (plant/service.py, plant/service_core.py) keeps everything that is not the model:
+The plant service (plant/service/main.py, plant/service/core.py) keeps everything that is not the model:
 the GTNET-SKT endpoints, STREAM_START/STOP, the AKs, the recorder and the run's (virtual) clock. This
 module is only what it steps, through the interface every backend implements
 (:class:`plant.backend.PlantBackend`): the paper's comparison arrangement (Section IV-A/B) in DPsim's
@@ -304,7 +304,7 @@ class EmtServiceBackend:
                 "v_dc": np.ones(n), "omega_meas": omega}
 
     def recorded(self) -> dict:
-        """What ``timeseries.csv`` holds (plant.recorder): ``t``, |V1| at the PCC (one-cycle mean),
+        """What ``timeseries.csv`` holds (plant.service.recorder): ``t``, |V1| at the PCC (one-cycle mean),
         the PCC's frequency (its PLL), per converter ``p``, ``q``, ``i_mag``, ``mode``."""
         m = self.measurements()
         return {"t": self.t, "v_pcc": abs(self.v_pcc1), "f_pcc_hz": F_NOMINAL_HZ * self.pll_pcc.omega,

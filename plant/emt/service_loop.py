@@ -1,8 +1,8 @@
 """The plant service's core on the EMT backend with the SDC's law in the same process: the loop a
 network run closes, without the network (tests/unit/test_emt_service.py, benchmarks/emt_service_speed.py).
 
-:func:`emt_core` builds :class:`plant.service_core.PlantCore` on ``plant.model: emt`` exactly as the
-service does (:func:`plant.service_model.build_model`); :func:`sdc_loop` answers every MEAS datagram with
+:func:`emt_core` builds :class:`plant.service.core.PlantCore` on ``plant.model: emt`` exactly as the
+service does (:func:`plant.service.model.build_model`); :func:`sdc_loop` answers every MEAS datagram with
 a CTRL datagram from the SDC's discretised law (:class:`sdc_unit.discrete.DiscreteVisc`, Tustin, the
 SDC's method), both through the GTNET-SKT wire encoding, the CTRL received before the plant's next step
 (the paper's one-sample loop) or ``extra_delay`` steps later.
@@ -14,8 +14,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from plant.service_core import PlantCore
-from plant.service_model import build_model
+from plant.service.core import PlantCore
+from plant.service.model import build_model
 from sdc_unit.discrete import DiscreteVisc
 from sdvisc import wire
 from sdvisc.config import PlantConfig

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from plant.gtnet_card_core import GtnetCardConfig
+from plant.card.core import GtnetCardConfig
 from scenarios import configs
 from scenarios.external import ExternalDevices
 from scenarios.loader import load_scenario
@@ -78,10 +78,10 @@ def test_non_finite_numbers_are_refused():
 
 
 def test_grid_batteries_and_p_star_reach_the_plant_model(tmp_path):
-    """plant.grid / plant.batteries / plant.p_star -> PlantConfig -> plant.service.build_model (no network)."""
+    """plant.grid / plant.batteries / plant.p_star -> PlantConfig -> plant.service.model.build_model (no network)."""
     import numpy as np
 
-    from plant.service import build_model
+    from plant.service.model import build_model
 
     path = tmp_path / "s.yaml"
     path.write_text("name: t\nduration_s: 3\ntopology: {name: farm, clusters: 5, turbines: 10}\n"
@@ -120,7 +120,7 @@ def test_grid_batteries_and_p_star_reach_the_plant_model(tmp_path):
 
 def test_recorder_writes_battery_columns_and_keeps_extremes(tmp_path):
     from plant.cases import visc_plant
-    from plant.recorder import Recorder
+    from plant.service.recorder import Recorder
 
     plant = visc_plant(4, battery=True, h_grid=5.0, s_grid_mva=1000.0)
     rec = Recorder(tmp_path / "ts.csv", [], every=5, batteries={"wt3_1": 20})

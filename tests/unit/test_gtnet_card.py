@@ -1,4 +1,4 @@
-"""The project's GTNET-SKT card emulator (plant.gtnet_card): its pure core driven with datagrams and
+"""The project's GTNET-SKT card emulator (plant.card): its pure core driven with datagrams and
 an injected ``now`` (no sockets), its configuration, and the program itself as a subprocess on
 loopback for a fraction of a second. No root; no assertion on timing."""
 
@@ -18,9 +18,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from plant import gtnet_card_core
-from plant.gtnet_card import STATS_FILE, load_card_config, main
-from plant.gtnet_card_core import CardCore, GtnetCardConfig
+from plant.card import core as gtnet_card_core
+from plant.card.core import CardCore, GtnetCardConfig
+from plant.card.emulator import STATS_FILE, load_card_config, main
 from sdvisc import wire
 from sdvisc.config import ConfigError
 
@@ -268,7 +268,7 @@ def test_the_program_streams_on_loopback_and_writes_its_stats_on_sigterm(tmp_pat
               "turbines": [{"name": "wt1_1", "wid": 101, "port": ports[0]}, {"name": "wt1_2", "wid": 102, "port": ports[1]}]}
     path = tmp_path / "card.yaml"
     path.write_text(yaml.safe_dump(config))
-    proc = subprocess.Popen([sys.executable, "-m", "plant.gtnet_card", "--config", str(path)], cwd=ROOT,
+    proc = subprocess.Popen([sys.executable, "-m", "plant.card.emulator", "--config", str(path)], cwd=ROOT,
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         ready = tmp_path / "out" / "gtnet_card_ready.json"
@@ -315,7 +315,7 @@ def test_the_program_streams_on_loopback_and_writes_its_stats_on_sigterm(tmp_pat
 
 
 def test_a_misbehaving_card_sends_its_bursts_once_from_the_named_port_and_counts_them():
-    """``misbehave``: a faulty card on purpose (plant.gtnet_card_faults) — the bursts leave the named
+    """``misbehave``: a faulty card on purpose (plant.card.faults) — the bursts leave the named
     turbine's port toward its SDC at their step, each kind as documented, and are counted apart."""
     core = make_core(misbehave=[{"t_s": 0.005, "turbine": "wt1_2", "kind": "wrong_word_count", "count": 3},
                                 {"t_s": 0.006, "turbine": "wt1_2", "kind": "unknown_turbine", "count": 2},

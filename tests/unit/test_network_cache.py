@@ -65,7 +65,7 @@ def test_every_state_variable_is_part_of_the_key():
 
 
 def test_the_plant_service_prepares_the_fault_and_the_timelines_scr_values(tmp_path):
-    from plant.service import build_model
+    from plant.service.model import build_model
     from sdvisc.config import PlantConfig
 
     cfg = PlantConfig(step_s=0.00067, out_dir=str(tmp_path), duration_s=1.0, model="full", prepare_scr=[1.51],

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from plant.cases import COMPARISON_UNIT, comparison_visc_plant
-from plant.service_model import build_model, farm_index
+from plant.service.model import build_model, farm_index
 from scenarios import configs
 from scenarios.loader import ScenarioError, load_scenario
 from sdvisc import wire

@@ -1,4 +1,4 @@
-"""The plant service's core (plant.service_core.PlantCore) driven without sockets: datagrams and an
+"""The plant service's core (plant.service.core.PlantCore) driven without sockets: datagrams and an
 injected ``now`` in, datagrams, events and counters out, on the minimal plant model."""
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ import inspect
 
 import pytest
 
-from plant import service_core
-from plant.service_core import Pacing, PlantCore
-from plant.service_model import build_model
-from plant.service_summary import summarise
+from plant.service import core as service_core
+from plant.service.core import Pacing, PlantCore
+from plant.service.model import build_model
+from plant.service.summary import summarise
 from sdvisc import wire
 from sdvisc.config import PlantConfig
 

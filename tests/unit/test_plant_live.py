@@ -1,4 +1,4 @@
-"""What the plant publishes while it runs (plant.live): the control-packet events a session's
+"""What the plant publishes while it runs (plant.service.live): the control-packet events a session's
 feedback is built on, and the status file with each ViSC turbine's V, Q, f."""
 
 from __future__ import annotations
@@ -8,8 +8,8 @@ import json
 import numpy as np
 import pytest
 
-from plant.live import LOSS_REPORT_S, LivePublisher
-from plant.service_core import Endpoint
+from plant.service.core import Endpoint
+from plant.service.live import LOSS_REPORT_S, LivePublisher
 
 T0 = 1000.0
 

@@ -1,5 +1,5 @@
-"""The plant's turbine receive step (plant.endpoint_rx.receive) on its own, and the service's
-``_drain`` (plant.service) with its core (plant.service_core.PlantCore) around it (issue 13).
+"""The plant's turbine receive step (plant.service.endpoint_rx.receive) on its own, and the service's
+``_drain`` (plant.service) with its core (plant.service.core.PlantCore) around it (issue 13).
 
 The receive step needs no socket, clock or model: an ``Endpoint`` is all its state. Only the
 ``_drain`` tests at the end use stand-ins: a fake socket and poller that hand out queued
@@ -16,10 +16,10 @@ import pytest
 from hypothesis import HealthCheck, event, example, given, settings
 from hypothesis import strategies as st
 
-from plant import endpoint_rx
-from plant.endpoint_rx import APPLY, IGNORE, MAX_REF_PU, REASONS, REQUEST, receive
-from plant.service import PlantService
-from plant.service_core import Endpoint, PlantCore
+from plant.service import endpoint_rx
+from plant.service.core import Endpoint, PlantCore
+from plant.service.endpoint_rx import APPLY, IGNORE, MAX_REF_PU, REASONS, REQUEST, receive
+from plant.service.main import PlantService
 from sdvisc import wire
 from sdvisc.config import PlantConfig
 from sdvisc.vocabulary import MEAS_FIELDS
@@ -375,7 +375,7 @@ def test_drain_survives_an_exception_from_one_datagram_and_a_socket_error(capsys
     svc._drain(1.001)
     assert ep.counts["rx_socket_error"] == 1 and ep.counts["ctrl_rx"] == 0
     svc._drain(1.002)  # the datagram after the socket error is still read (and accounted): rejected, as the
-    # refused STREAM_START left the turbine without a stream (the model is asked first, plant/service_core.py)
+    # refused STREAM_START left the turbine without a stream (the model is asked first, plant/service/core.py)
     assert ep.counts["ctrl_rx"] == 0 and not ep.streaming
     assert rejections(ep) == {"internal": 2, "not_from_sdc": 1}  # no SDC named: none is its SDC
     assert capsys.readouterr().err == ""

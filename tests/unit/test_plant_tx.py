@@ -1,4 +1,4 @@
-"""The plant's MEAS packer (plant.endpoint_tx) against the general encoder, sdvisc.wire.encode: the
+"""The plant's MEAS packer (plant.service.endpoint_tx) against the general encoder, sdvisc.wire.encode: the
 same bytes where the encoder accepts the values, None (counted by the service, never sent) where it
 refuses them."""
 
@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from plant.endpoint_tx import MeasPacker
+from plant.service.endpoint_tx import MeasPacker
 from sdvisc import wire
 from sdvisc.vocabulary import MEAS_FIELDS
 

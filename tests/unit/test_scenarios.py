@@ -250,7 +250,7 @@ def test_bad_grid_battery_and_delta_keys(tmp_path, body, line, key, expect):
 
 def test_relative_set_reads_the_present_value():
     from plant.minimal import MinimalPlant
-    from plant.service_model import apply_set
+    from plant.service.model import apply_set
     from plant.sim import Plant
 
     plant = Plant(n_turbines=50, jit=False)

@@ -13,7 +13,7 @@ import networkx as nx
 import pytest
 
 from plant.params import PlantParams
-from plant.run_record import plant_indices
+from plant.service.run_record import plant_indices
 from scenarios import configs
 from scenarios.loader import ScenarioError, load_scenario
 from topologies import topos
@@ -162,7 +162,7 @@ def test_a_mininet_delay_in_seconds(delay, seconds):
 
 
 def test_the_plant_takes_the_converter_the_description_gives():
-    from plant.service_model import endpoint_indices, farm_index
+    from plant.service.model import endpoint_indices, farm_index
     from sdvisc.config import PlantConfig
 
     def config(*turbines):
