@@ -6,8 +6,8 @@ sag its settled current equals turbine_laws.gfl_current_ref's closed form (FRT, 
 current limit) to 1e-6 and its PLL locks onto a voltage-angle step to 1e-6 rad; the farm arrangement with
 the aggregate starts at the phasor plant's PCC voltage within 1e-4 p.u. and stays within 1e-3 with
 nothing happening; the exchange every Ts gives the exchange every step's droop Q and PCC voltage after the
-activation within 1e-4 (relative 1e-3 on Q); F7's SCR boundary without a device and with the SC on the EMT
-backend within 0.1 SCR of the phasor plant's (issue 40's goal): the EMT farm stable at the phasor
+activation within 1e-4 (relative 1e-3 on Q); F7's SCR boundary without a device, with the SC and with the
+four SDViSCs of cluster 3 on the EMT backend within 0.1 SCR of the phasor plant's (issue 40's goal): the EMT farm stable at the phasor
 boundary + 0.1 and not stable at − 0.1, both with the report's criterion (report/stability.py)."""
 
 from __future__ import annotations
@@ -88,7 +88,7 @@ def test_exchange_every_ts_gives_the_exchange_every_steps_droop_q():
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("case", ["none", "SC"])
+@pytest.mark.parametrize("case", ["none", "SC", "4 SDViSCs of cluster 3"])
 def test_f7_boundary_on_emt_within_0_1_scr_of_the_phasor_plants(case):
     from report.exp_emt_weak import CASES, emt_scr_run, emt_state  # noqa: PLC0415
     from report.weak_cases import f7_search_settings, search_boundary  # noqa: PLC0415
