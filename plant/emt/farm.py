@@ -41,7 +41,12 @@ K_AD_PARALLEL = 0.5
 four average converters in parallel on this circuit have a growing ~125 Hz mode (the PCC's V1 peak to peak
 0.0004 p.u. over 0.5-1 s, 0.0055 over 1-2 s, a loss of stability by 2-2.5 s; 0.4 p.u. with 0), with 0.5
 it is at rest (< 1e-6 p.u.); one unit in the comparison arrangement is at rest with 0.2]. Active damping
-acts on v - its low-pass (w_ad), so the steady state (the droop's Q) does not depend on it."""
+acts on v - its low-pass (w_ad), so the steady state (the droop's Q) does not depend on it. For the exchange
+every step the damping is applied from Python with the last step's v; with the exchange every Ts it is
+inside the circuit (farm_run) and with the phasor turbine's 0.2 the four are at rest at F8's grid (V1 peak
+to peak 4e-10 p.u. over 2-2.5 s, against 0.02 every step; an ad-hoc probe, 2026-12-06) but not in F7's
+weak grid: at SCR 1.69 after the step (the phasor plant's boundary + 0.1) their terminals reach 3.9 p.u.,
+with 0.5 the farm is stable there (tests/unit/test_emt_gfl.py's F7 test). Both exchanges use 0.5."""
 
 
 @dataclass
