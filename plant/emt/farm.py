@@ -1,6 +1,8 @@
 """F8's farm arrangement in EMT: N SDViSC turbines (each its own average-model converter with the ViSC law
 and its droop m_q) behind their turbine transformers and their cluster's array cable, the rest of the farm
-aggregated into one grid-following current source at the offshore collector, the export path (offshore
+aggregated into one current source — a constant-P injection at the offshore collector (``injection``) or one
+grid-following converter with the phasor turbine's controls behind the aggregated turbine transformers and
+array cables (``gfl``, plant/emt/gfl_farm.py) — the export path (offshore
 transformer, export cable, onshore transformer) to the PCC, the grid's Thevenin source, a fault switch at
 the PCC; optionally the 40 MVA SC at the PCC (its E'' behind x''_d driven by the project's condenser model,
 as plant/emt/arrangement.py).
@@ -11,9 +13,9 @@ at the PCC: the grid EMF and the current the onshore transformer delivers, so th
 voltage; the EMT circuit's own load flow (plant/emt/netlist.py) then gives every node. The export cable is
 one pi section (the phasor plant: ``export_sections``) with its compensation reactors at both ends; the
 array cables' charging sits at the collector. Left out (stated in docs/plant.md, "EMT backend"): the other
-clusters' array cables and turbine transformers (the aggregated farm injects at the collector), the other
-turbines' currents in the SDViSCs' array cable, the WPP's Q/V control (F8 runs it in Q mode at Q* = 0: the
-farm's P and Q constant).
+clusters' array cables and turbine transformers one by one (``injection``: none, the farm injects at the
+collector; ``gfl``: one equivalent of each), the other turbines' currents in the SDViSCs' array cable. The
+stepped run, with the exchange every circuit step or every Ts: plant/emt/farm_run.py.
 """
 
 from __future__ import annotations
