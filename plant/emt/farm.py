@@ -27,7 +27,7 @@ import numpy as np
 
 import plant.cases
 from plant.condenser import Condenser
-from plant.emt import arrangement, netlist
+from plant.emt import arrangement, frame, netlist
 from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
 from plant.emt.farm_run import EXCHANGES, run_farm, sdc_measurements
 from plant.emt.gfl_farm import GflAggregate
@@ -226,9 +226,12 @@ class EmtFarm:
                  steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
                  scr_after: float | None = None, visc_params: ViscParams | None = None,
                  k_ad: float = K_AD_PARALLEL, farm_model: str = "injection", exchange: str = "step",
-                 record_every_step: bool = False, fault_kind: str = "slg", **grid):
+                 record_every_step: bool = False, fault_kind: str = "slg", meas: str = "park", **grid):
         if exchange not in EXCHANGES:
             raise ValueError(f"exchange {exchange!r}: one of {', '.join(EXCHANGES)}")
+        if meas not in frame.MEASUREMENTS:
+            raise ValueError(f"meas {meas!r}: one of {', '.join(frame.MEASUREMENTS)}")
+        self.meas = meas  # the SDViSCs' law measures the raw Park phasors or their positive sequence (farm_run)
         self.exchange = exchange
         self.record_every_step = record_every_step
         self.circ, self.phasor_plant = build_case(n_visc, m_q, with_sc, r_fault, scr_after, visc_params,

@@ -15,6 +15,12 @@ Python's controllers, in one of two exchanges.
   with ``EmtFarm.record_every_step`` (the exchange still every Ts; instantaneous peaks need it).
 
 The aggregated farm (FarmInjection or GflAggregate) is updated every Ts in both.
+
+The SDViSCs' law measures (``EmtFarm.meas``, frame.MEASUREMENTS) the terminal voltage's and the converter
+current's raw Park phasors at the exchange's step (``park``) or their positive sequence (``dsc``: quarter-cycle
+delayed-signal cancellation at the circuit's step, frame.QuarterCycleDsc, the same filter for both exchanges:
+``ts`` reads the Park phasors also d = T0/4 steps before each sample). The converter's active damping acts on the
+raw terminal voltage in both (it is the converter's own circuit-level loop).
 """
 
 from __future__ import annotations
@@ -80,6 +86,16 @@ class _Poles:
         self.last = i
 
 
+def _store_dsc(k: int, tk: float, vt_attr: list, i_attr: list, dsc_v: list, dsc_i: list) -> None:
+    """The SDViSCs' Park phasors at step ``k`` into their delayed-signal cancellations (a step between the
+    exchanges every Ts whose phasors the sample d steps later needs)."""
+    for j, (va_, ia_) in enumerate(zip(vt_attr, i_attr)):
+        va, vb, vc = va_.get().ravel().tolist()
+        ia, ib, ic = (-ia_.get().ravel()).tolist()
+        dsc_v[j].store(k, frame.park_sample(va, vb, vc, tk))
+        dsc_i[j].store(k, frame.park_sample(ia, ib, ic, tk))
+
+
 def _simulation(m, built, t_end: float, fault):
     d = dpsim()
     sim = d.Simulation("sdvisc_emt_farm", d.LogLevel.off)
@@ -131,6 +147,11 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     kd = m.k_ad
     a_phi = 1.0 - math.exp(-ts * m.w_ad)  # the active damping's low-pass over Ts (exact, v_t held)
     phi = [v for v, _ in m._last]
+    raw_v = [v for v, _ in m._last]  # the terminals' raw Park phasors (the active damping's input)
+    dsc_on = m.meas == "dsc"  # the law's measurements: the positive sequence (frame.QuarterCycleDsc)
+    d_dsc = frame.dsc_delay_steps(m.h)
+    dsc_v = [frame.QuarterCycleDsc(d_dsc, v) for v, _ in m._last] if dsc_on else []
+    dsc_i = [frame.QuarterCycleDsc(d_dsc, i) for _, i in m._last] if dsc_on else []
     col_every_step = gfl is None  # the injection's one-cycle mean of the collector voltage
     wall0, cpu0 = time.perf_counter(), time.process_time()
     with native_stdout_silenced():  # DPsim's "Handle event time" lines (dpsim_env)
@@ -155,6 +176,9 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 poles_left = not all(poles.open)
             at_ts = (k + 1) % n_sub == 0
             exchange_now = every_step or at_ts
+            feeds_dsc = dsc_on and not every_step and (k + 1 + d_dsc) % n_sub == 0  # k + d is a sample
+            if feeds_dsc and not record_all:
+                _store_dsc(k, float(t[k]), vt_attr, i_attr, dsc_v, dsc_i)
             if not (record_all or exchange_now):
                 continue
             tk = float(t[k])
@@ -165,20 +189,26 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 v_t[r, j] = va, vb, vc
                 i_c[r, j] = ia, ib, ic
                 if not exchange_now:
+                    if feeds_dsc:
+                        dsc_v[j].store(k, park(va, vb, vc, tk))
+                        dsc_i[j].store(k, park(ia, ib, ic, tk))
                     continue
                 vk, ik = park(va, vb, vc, tk), park(ia, ib, ic, tk)
+                raw_v[j] = vk
+                if dsc_on:
+                    vk, ik = dsc_v[j].push(k, vk), dsc_i[j].push(k, ik)
                 m._last[j] = (vk, ik)
                 u = m.units[j]
                 if every_step:
                     if u is not None:
                         u.sample(vk, ik, m.h)
-                        m._e[j] = u.converter_voltage(vk, m.h)
+                        m._e[j] = u.converter_voltage(raw_v[j], m.h)
                         e_attr[j].set(conv(m._e[j]))
                     continue
             if exchange_now and not every_step and nu:
                 v_refs = m._e if m.sdc is None else sdc_sample(m.sdc, m._last, c.k_unit)
                 for j in range(nu):
-                    phi[j] += a_phi * (m._last[j][0] - phi[j])
+                    phi[j] += a_phi * (raw_v[j] - phi[j])
                     e_attr[j].set(conv((v_refs[j] + kd * phi[j]) / (1.0 + kd)))
             if at_ts and nu:
                 law_rows.append((tk, *_law_state(m)))

@@ -77,3 +77,53 @@ def phasor_to_abc(v: complex, t: np.ndarray | float) -> np.ndarray:
     """Instantaneous phase values (circuit units) of a balanced p.u. phasor ``v`` at ``t``."""
     rot = np.array([1.0, A * A, A])
     return PEAK_PER_PU * np.real(np.multiply.outer(v * np.exp(1j * OMEGA0 * np.asarray(t)), rot))
+
+
+MEASUREMENTS = ("park", "dsc")
+"""What the SDViSCs' law is given (plant/emt/farm_run.py): ``park`` the raw Park phasor of each circuit step's
+sample (negative sequence as a 100 Hz ripple), ``dsc`` its positive sequence by quarter-cycle delayed-signal
+cancellation (:class:`QuarterCycleDsc`)."""
+
+
+def dsc_delay_steps(h: float) -> int:
+    """The quarter cycle T0/4 (5 ms at 50 Hz) in circuit steps of ``h`` (rounded: at h = Ts/13 = 51.54 µs it
+    is 97.01 steps; the 0.015-step remainder leaves 2.4e-4 of a negative sequence, see
+    :func:`positive_sequence_dsc`)."""
+    return int(round(0.5 * math.pi / (OMEGA0 * h)))
+
+
+def positive_sequence_dsc(x_park: np.ndarray, d: int) -> np.ndarray:
+    """The positive sequence of Park phasors ``x_park`` (first axis: circuit steps) by delayed-signal
+    cancellation over a quarter cycle: x1(t) = (x(t) + x(t - T0/4)) / 2 with ``d`` steps = T0/4.
+
+    In the stationary frame this is the instantaneous symmetrical-components positive-sequence calculation
+    v+ = (v + j q v)/2 with the quadrature signal q v taken as the quarter-cycle delay [src: Rodríguez et al.,
+    "New positive-sequence voltage detector for grid synchronization of power converters under faulty grid
+    conditions", IEEE PESC 2006 (the PSC, there with a SOGI for q); Svensson, Bongiorno, Sannino, "Practical
+    implementation of delayed signal cancellation method for phase-sequence separation", IEEE Trans. Power
+    Delivery 22(1), 2007 (the delay)]. In the common frame x = s e^{-j w0 t}, so j s(t - T0/4) e^{-j w0 t} =
+    x(t - T0/4): a two-tap mean, a notch at 100 Hz (the negative sequence V2 e^{-j 2 w0 t}) that passes the
+    positive sequence unchanged and, in the space vector, drops the zero sequence. Settles in T0/4 (5 ms);
+    before ``d`` samples exist the first sample stands in for the past (a start at rest)."""
+    x = np.asarray(x_park)
+    past = np.concatenate([np.repeat(x[:1], d, axis=0), x[:-d] if d else x[:0]], axis=0)[: len(x)]
+    return 0.5 * (x + past)
+
+
+class QuarterCycleDsc:
+    """:func:`positive_sequence_dsc` one sample at a time (the stepped run's per-step measurement): a ring of
+    the last ``d`` + 1 Park phasors, prefilled with ``x0`` (the load flow's: a start at rest)."""
+
+    def __init__(self, d: int, x0: complex):
+        self.d = d
+        self.ring = [complex(x0)] * (d + 1)
+
+    def push(self, k: int, x: complex) -> complex:
+        """Store step ``k``'s phasor, return the positive sequence at k (needs step k - d stored earlier)."""
+        n = self.d + 1
+        self.ring[k % n] = x
+        return 0.5 * (x + self.ring[(k - self.d) % n])
+
+    def store(self, k: int, x: complex) -> None:
+        """Store step ``k``'s phasor only (a step whose output nobody reads, but k + d's will)."""
+        self.ring[k % (self.d + 1)] = x
