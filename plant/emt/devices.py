@@ -71,11 +71,12 @@ class ViscConverter:
         self._params = p
         self._c = law.param_rows(p, 1)[:, 0].copy()
 
-    def sample(self, v_t: complex, i_net: complex, ts: float) -> None:
+    def sample(self, v_t: complex, i_net: complex, ts: float, s_net: complex | None = None) -> None:
         """The law's sample (sdc_unit.law_jit.law_rhs, the law's equations compiled): measurements in,
-        state advanced by ``ts`` (forward Euler), v_ref held."""
+        state advanced by ``ts`` (forward Euler), v_ref held. ``s_net``: the measured P + jQ (network-base
+        current) when not v_t conj(i) (farm_run's ``dsc_pq``: the positive sequence's)."""
         i = i_net / self.k
-        s = v_t * i.conjugate()
+        s = v_t * i.conjugate() if s_net is None else s_net / self.k
         vals = (v_t.real, v_t.imag, i.real, i.imag, s.real, s.imag, 1.0, 1.0)
         self._m[:] = [vals[k] for k in _MEAS_ORDER]
         law_jit.law_rhs(self.x, self._m, self._c, self._dx, self._out)

@@ -17,10 +17,14 @@ Python's controllers, in one of two exchanges.
 The aggregated farm (FarmInjection or GflAggregate) is updated every Ts in both.
 
 The SDViSCs' law measures (``EmtFarm.meas``, frame.MEASUREMENTS) the terminal voltage's and the converter
-current's raw Park phasors at the exchange's step (``park``) or their positive sequence (``dsc``: quarter-cycle
+current's raw Park phasors at the exchange's step (``park``), their positive sequence (``dsc``: quarter-cycle
 delayed-signal cancellation at the circuit's step, frame.QuarterCycleDsc, the same filter for both exchanges:
-``ts`` reads the Park phasors also d = T0/4 steps before each sample). The converter's active damping acts on the
-raw terminal voltage in both (it is the converter's own circuit-level loop).
+``ts`` reads the Park phasors also d = T0/4 steps before each sample), or the raw v, i with P + jQ of the positive
+sequence (``dsc_pq``: the swing's T_e and the AVR's droop on positive-sequence power; the inner current loop and
+its feed-forward on the raw phasors), or that with the current's positive sequence as well (``dsc_ipq``: the
+current loop, limiter and power on the positive sequence, the terminal voltage raw: its feed-forward through the
+filter's 5 ms is unstable with the law every step, docs/plant.md "F1"). The converter's active damping
+acts on the raw terminal voltage in all (it is the converter's own circuit-level loop).
 """
 
 from __future__ import annotations
@@ -38,20 +42,21 @@ EXCHANGES = ("step", "ts")
 SQRT3 = math.sqrt(3.0)
 
 
-def sdc_measurements(last: list, k_unit: float) -> np.ndarray:
+def sdc_measurements(last: list, k_unit: float, s_net: list | None = None) -> np.ndarray:
     """The SDC's MEAS rows (sdvisc.vocabulary.MEAS_FIELDS: v_d, v_q, i_d, i_q, p, q, v_dc, omega_meas) of each
-    SDViSC's (terminal voltage, converter current [network base]) phasors, own base; v_dc, omega 1."""
+    SDViSC's (terminal voltage, converter current [network base]) phasors, own base; v_dc, omega 1; p + jq
+    v conj(i), or ``s_net`` / k_unit where given (``dsc_pq``)."""
     rows = np.ones((8, len(last)))
     for j, (v, i_net) in enumerate(last):
         i = i_net / k_unit
-        s = v * i.conjugate()
+        s = v * i.conjugate() if s_net is None else s_net[j] / k_unit
         rows[:6, j] = v.real, v.imag, i.real, i.imag, s.real, s.imag
     return rows
 
 
-def sdc_sample(sdc, last: list, k_unit: float) -> list[complex]:
+def sdc_sample(sdc, last: list, k_unit: float, s_net: list | None = None) -> list[complex]:
     """One sample of the SDC's discrete ViSCs (sdc_unit.discrete.DiscreteVisc, all units at once): their v_ref."""
-    sdc.advance(sdc_measurements(last, k_unit))
+    sdc.advance(sdc_measurements(last, k_unit, s_net))
     return (sdc.last["v_ref_d"] + 1j * sdc.last["v_ref_q"]).tolist()
 
 
@@ -148,7 +153,10 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
     a_phi = 1.0 - math.exp(-ts * m.w_ad)  # the active damping's low-pass over Ts (exact, v_t held)
     phi = [v for v, _ in m._last]
     raw_v = [v for v, _ in m._last]  # the terminals' raw Park phasors (the active damping's input)
-    dsc_on = m.meas == "dsc"  # the law's measurements: the positive sequence (frame.QuarterCycleDsc)
+    dsc_on = m.meas != "park"  # the positive sequence (frame.QuarterCycleDsc) of all the law's inputs or of P, Q
+    v1_in, i1_in = m.meas == "dsc", m.meas in ("dsc", "dsc_ipq")  # the law's v, i: positive sequence or raw
+    pq1 = m.meas in ("dsc_pq", "dsc_ipq")
+    s1 = [v * i.conjugate() for v, i in m._last] if pq1 else None  # P + jQ of the positive sequence
     d_dsc = frame.dsc_delay_steps(m.h)
     dsc_v = [frame.QuarterCycleDsc(d_dsc, v) for v, _ in m._last] if dsc_on else []
     dsc_i = [frame.QuarterCycleDsc(d_dsc, i) for _, i in m._last] if dsc_on else []
@@ -196,17 +204,20 @@ def run_farm(m, t_end: float, events: list | None = None, fault: tuple[float, fl
                 vk, ik = park(va, vb, vc, tk), park(ia, ib, ic, tk)
                 raw_v[j] = vk
                 if dsc_on:
-                    vk, ik = dsc_v[j].push(k, vk), dsc_i[j].push(k, ik)
+                    v1, i1 = dsc_v[j].push(k, vk), dsc_i[j].push(k, ik)
+                    if pq1:
+                        s1[j] = v1 * i1.conjugate()
+                    vk, ik = (v1 if v1_in else vk), (i1 if i1_in else ik)
                 m._last[j] = (vk, ik)
                 u = m.units[j]
                 if every_step:
                     if u is not None:
-                        u.sample(vk, ik, m.h)
+                        u.sample(vk, ik, m.h, None if s1 is None else s1[j])
                         m._e[j] = u.converter_voltage(raw_v[j], m.h)
                         e_attr[j].set(conv(m._e[j]))
                     continue
             if exchange_now and not every_step and nu:
-                v_refs = m._e if m.sdc is None else sdc_sample(m.sdc, m._last, c.k_unit)
+                v_refs = m._e if m.sdc is None else sdc_sample(m.sdc, m._last, c.k_unit, s1)
                 for j in range(nu):
                     phi[j] += a_phi * (raw_v[j] - phi[j])
                     e_attr[j].set(conv((v_refs[j] + kd * phi[j]) / (1.0 + kd)))

@@ -79,10 +79,11 @@ def phasor_to_abc(v: complex, t: np.ndarray | float) -> np.ndarray:
     return PEAK_PER_PU * np.real(np.multiply.outer(v * np.exp(1j * OMEGA0 * np.asarray(t)), rot))
 
 
-MEASUREMENTS = ("park", "dsc")
+MEASUREMENTS = ("park", "dsc", "dsc_pq", "dsc_ipq")
 """What the SDViSCs' law is given (plant/emt/farm_run.py): ``park`` the raw Park phasor of each circuit step's
 sample (negative sequence as a 100 Hz ripple), ``dsc`` its positive sequence by quarter-cycle delayed-signal
-cancellation (:class:`QuarterCycleDsc`)."""
+cancellation (:class:`QuarterCycleDsc`) for every input, ``dsc_pq`` the raw v, i with P + jQ of the positive
+sequences, ``dsc_ipq`` the raw v with the current and P + jQ of the positive sequences."""
 
 
 def dsc_delay_steps(h: float) -> int:
