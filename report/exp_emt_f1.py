@@ -12,7 +12,14 @@ plant at Ts/13 (plant.cosim.run_sdc / run_hd). Both compared at the SDC's sample
 (plant.cosim.compare: the worst turbine's RMS deviation over the HD trace's range, per quantity) and F1's
 rule (report/exp_sdc.py: ≤ 1 % yes, ≤ 5 % partly). V_pcc on EMT is the PCC's positive sequence (one-cycle
 mean of the Park phasor), Q each SDViSC's from the terminal's and filter current's Park phasors (the raw
-sample: the negative sequence's 100 Hz ripple is in both runs alike during the fault)."""
+sample: the negative sequence's 100 Hz ripple is in both runs alike during the fault).
+
+The law's measurements (EmtFarm's ``meas``, plant/emt/farm_run.py): the verdict reads the raw Park phasors
+(``park``: the paper's "three-phase output voltages and currents are sent to the SDC unit", Section V-A, and
+no sequence filter named); beside it the same runs with positive-sequence measurements by quarter-cycle
+delayed-signal cancellation at the circuit's step, the same filter for the HD ViSC and the SDViSC
+(``dsc_ipq``: the current and P, Q; ``dsc_pq``: P, Q only; every input including the terminal voltage,
+``dsc``, is unstable with the law every step: its feed-forward through the filter's 5 ms, docs/plant.md "F1")."""
 
 from __future__ import annotations
 
@@ -29,13 +36,16 @@ from report.registry import Context, Experiment, Finding, PaperClaim
 FAULT = (1.0, 1.3)  # s, F1's (plant.cosim.FaultCase)
 T_END = 2.0
 VISC_TURBINES = (20, 21, 22, 23)
+MEAS = "park"  # the verdict's reading (module docstring)
+MEAS_BESIDE = ("dsc_ipq", "dsc_pq")  # the positive-sequence measurements shown beside it
 R_BALANCED = 0.1  # p.u. per phase: the diagnostic balanced fault's resistance (V1 at the PCC ≈ 0.6, as F1's SLG)  # plant.cases.FIRST_VISC: the EMT arrangement's four of cluster 3
 
 
-def emt_run(exchange: str, **fault) -> dict:
-    """One EMT run: traces at the SDC's sample instants (plant.cosim's layout, [sample, turbine]); ``fault``:
-    EmtFarm's fault_kind, r_fault (default F1's bolted SLG)."""
-    m = EmtFarm(4, None, farm_model="gfl", exchange=exchange, **fault)
+def emt_run(exchange: str, meas: str = MEAS, **fault) -> dict:
+    """One EMT run: traces at the SDC's sample instants (plant.cosim's layout, [sample, turbine]); ``meas``:
+    the law's measurements (frame.MEASUREMENTS); ``fault``: EmtFarm's fault_kind, r_fault (default F1's
+    bolted SLG)."""
+    m = EmtFarm(4, None, farm_model="gfl", exchange=exchange, meas=meas, **fault)
     r = m.run(T_END, events=[(0.0, EmtFarm.activate)], fault=FAULT)
     law = r["law"]
     t = law["t"]
@@ -61,9 +71,9 @@ def _verdict(w: float) -> str:
     return "yes" if w <= RMS_YES else "partly" if w <= RMS_PARTLY else "no"
 
 
-def emt_pct(**fault) -> tuple[dict, dict, dict, int]:
+def emt_pct(meas: str = MEAS, **fault) -> tuple[dict, dict, dict, int]:
     """(F1's measure per quantity on EMT, the HD run, the SDC run, the samples compared)."""
-    hd, sdc = emt_run("step", **fault), emt_run("ts", **fault)
+    hd, sdc = emt_run("step", meas, **fault), emt_run("ts", meas, **fault)
     n = min(len(hd["t"]), len(sdc["t"]))
     hd_n, sdc_n = ({q: r[q][:n] for q in QUANTITIES} for r in (hd, sdc))
     return _pct(compare(sdc_n, hd_n)), hd, sdc, n
@@ -72,6 +82,13 @@ def emt_pct(**fault) -> tuple[dict, dict, dict, int]:
 def _f1(ctx: Context) -> dict[str, Finding]:
     emt, hd, sdc, n = emt_pct()
     balanced = emt_pct(fault_kind="3ph", r_fault=R_BALANCED)[0]
+    beside = {}
+    for meas in MEAS_BESIDE:
+        pct, hd_m, _, n_m = emt_pct(meas)
+        dur = (hd_m["t"][:n_m] > FAULT[0] + 0.02) & (hd_m["t"][:n_m] < FAULT[1])
+        beside[meas] = {"pct": pct, "worst_pct": max(pct.values()), "verdict": _verdict(max(pct.values())),
+                        "q_fault_hd": float(hd_m["q"][:n_m][dur].mean())}
+    ctx.numbers["emt_f1_pct_positive_sequence"] = beside
     p_sdc, p_hd = phasor_runs()
     ph = _pct(compare(p_sdc, p_hd))
     w_e, w_p = max(emt.values()), max(ph.values())
@@ -92,10 +109,17 @@ def _f1(ctx: Context) -> dict[str, Finding]:
         "only), where Ts's zero-order hold lags by Ts/2 (12° at 100 Hz); with a balanced three-phase fault through "
         f"{R_BALANCED} p.u. instead (same instants) the EMT's are " + ", ".join(f"{q} {v:.2f} %" for q, v in
                                                                                balanced.items())
-        + f". Mean Q of the SDViSCs during the fault (HD, EMT) {q_e:.2f} p.u. "
+        + f". Mean Q of the SDViSCs during the fault (HD, EMT) {q_e:.2f} p.u. The verdict reads the law's raw Park "
+        "measurements (the paper sends the three-phase voltages and currents to the SDC and names no sequence "
+        "filter); with positive-sequence measurements (quarter-cycle delayed-signal cancellation every circuit "
+        "step, the same for both) " + "; ".join(
+            f"{meas}: worst {b['worst_pct']:.2f} % ({b['verdict']}; " + ", ".join(
+                f"{q} {v:.2f} %" for q, v in b["pct"].items()) + ")" for meas, b in beside.items())
+        + " — dsc_ipq the current and P, Q, dsc_pq P, Q only; the terminal voltage's own positive sequence is "
+        "unstable with the law every step (its feed-forward through the filter's 5 ms). "
         "The HD ViSC: the continuous law every 51.5 µs; the SDViSC: sdc_unit's Tustin DiscreteVisc every 0.67 ms",
         {"emt_pct": emt, "emt_balanced_fault_pct": balanced, "phasor_pct": ph, "worst_emt_pct": w_e, "worst_phasor_pct": w_p, "q_fault_hd_emt": q_e,
-         "emt_cpu_s": ctx.numbers["emt_cpu_s"]})}
+         "emt_cpu_s": ctx.numbers["emt_cpu_s"], "measurement": MEAS, "positive_sequence_beside": beside})}
 
 
 def _figure(ctx: Context, hd: dict, sdc: dict, n: int) -> None:
