@@ -15,7 +15,7 @@ mean of the Park phasor), Q each SDViSC's from the terminal's and filter current
 sample: the negative sequence's 100 Hz ripple is in both runs alike during the fault).
 
 The law's measurements (EmtFarm's ``meas``, plant/emt/farm_run.py): the verdict reads the raw Park phasors
-(``park``: the paper's "three-phase output voltages and currents are sent to the SDC unit", Section V-A, and
+(``park``: the paper's "three-phase output voltages and currents are sent to the SDC unit", Section III-A, and
 no sequence filter named); beside it the same runs with positive-sequence measurements by quarter-cycle
 delayed-signal cancellation at the circuit's step, the same filter for the HD ViSC and the SDViSC
 (``dsc_ipq``: the current and P, Q; ``dsc_pq``: P, Q only; every input including the terminal voltage,
