@@ -88,6 +88,7 @@ def _f1(ctx: Context) -> dict[str, Finding]:
         dur = (hd_m["t"][:n_m] > FAULT[0] + 0.02) & (hd_m["t"][:n_m] < FAULT[1])
         beside[meas] = {"pct": pct, "worst_pct": max(pct.values()), "verdict": _verdict(max(pct.values())),
                         "q_fault_hd": float(hd_m["q"][:n_m][dur].mean())}
+    beside[MEAS_BESIDE[0]]["balanced_fault_pct"] = emt_pct(MEAS_BESIDE[0], fault_kind="3ph", r_fault=R_BALANCED)[0]
     ctx.numbers["emt_f1_pct_positive_sequence"] = beside
     p_sdc, p_hd = phasor_runs()
     ph = _pct(compare(p_sdc, p_hd))
@@ -115,8 +116,11 @@ def _f1(ctx: Context) -> dict[str, Finding]:
         "step, the same for both) " + "; ".join(
             f"{meas}: worst {b['worst_pct']:.2f} % ({b['verdict']}; " + ", ".join(
                 f"{q} {v:.2f} %" for q, v in b["pct"].items()) + ")" for meas, b in beside.items())
-        + " — dsc_ipq the current and P, Q, dsc_pq P, Q only; the terminal voltage's own positive sequence is "
-        "unstable with the law every step (its feed-forward through the filter's 5 ms). "
+        + " — dsc_ipq the current and P, Q, dsc_pq P, Q only; with dsc_ipq and the balanced fault " + ", ".join(
+            f"{q} {v:.2f} %" for q, v in beside[MEAS_BESIDE[0]]["balanced_fault_pct"].items())
+        + " (the filter's 5 ms inside the law's current loop, not the negative sequence, makes most of it); "
+        "the terminal voltage's own positive sequence is unstable with the law every step (its feed-forward "
+        "through the filter's 5 ms). "
         "The HD ViSC: the continuous law every 51.5 µs; the SDViSC: sdc_unit's Tustin DiscreteVisc every 0.67 ms",
         {"emt_pct": emt, "emt_balanced_fault_pct": balanced, "phasor_pct": ph, "worst_emt_pct": w_e, "worst_phasor_pct": w_p, "q_fault_hd_emt": q_e,
          "emt_cpu_s": ctx.numbers["emt_cpu_s"], "measurement": MEAS, "positive_sequence_beside": beside})}
