@@ -220,7 +220,9 @@ class EmtFarm:
     voltage (P = 0, as the phasor plant's turbines before the OWFCC's request) until :meth:`activate`,
     then follow the ViSC law (sdc_unit's equations at every circuit step, the HD ViSC as F8's hd_visc),
     each with its own droop; the aggregated farm's current is recomputed every Ts from its node's
-    positive-sequence voltage (devices.FarmInjection, its fault ride-through)."""
+    positive-sequence voltage (devices.FarmInjection, its fault ride-through). ``meas``: what the SDViSCs' law
+    measures (frame.MEASUREMENTS: the raw Park phasors, or positive sequences by delayed-signal cancellation;
+    farm_run's module docstring)."""
 
     def __init__(self, n_visc: int = 4, m_q=(0.03, 0.05, 0.07, 0.10), with_sc: bool = False,
                  steps_per_ts: int = STEPS_PER_TS, r_fault: float = arrangement.R_FAULT,
