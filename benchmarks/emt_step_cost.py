@@ -52,17 +52,16 @@ def with_exchange(device: str, law_every: int = 1, k_ad: float | None = None) ->
             "us_per_step": r["cpu_s"] / len(r["t"]) * 1e6, "steps": len(r["t"]), "step_s": r["h"]}
 
 
-def solver_only(device: str) -> dict:
-    m = EmtComparison(device)
+def _solver_cost(name: str, system, h: float) -> dict:
+    """DPsim's own EMT step on ``system`` at ``h`` for SIM_S, nothing exchanged between steps."""
     d = dpsim()
-    circ = arrangement.build(m.op)
-    sim = d.Simulation(f"bench_{device}", d.LogLevel.off)
-    sim.set_system(circ.sys)
+    sim = d.Simulation(name, d.LogLevel.off)
+    sim.set_system(system)
     sim.set_domain(d.Domain.EMT)
-    sim.set_time_step(m.h)
+    sim.set_time_step(h)
     sim.set_final_time(SIM_S + 1.0)
     sim.do_init_from_nodes_and_terminals(True)
-    n = int(round(SIM_S / m.h))
+    n = int(round(SIM_S / h))
     sim.start()
     c0 = time.process_time()
     for _ in range(n):
@@ -70,6 +69,11 @@ def solver_only(device: str) -> dict:
     cpu = time.process_time() - c0
     sim.stop()
     return {"cpu_s_per_sim_s": cpu / SIM_S, "us_per_step": cpu / n * 1e6, "steps": n}
+
+
+def solver_only(device: str) -> dict:
+    m = EmtComparison(device)
+    return _solver_cost(f"bench_{device}", arrangement.build(m.op).sys, m.h)
 
 
 def farm_with_exchange(**kw) -> dict:
@@ -82,22 +86,7 @@ def farm_with_exchange(**kw) -> dict:
 
 def farm_solver_only() -> dict:
     m = EmtFarm(4, (0.03, 0.05, 0.07, 0.10), with_sc=True)
-    d = dpsim()
-    built = netlist.build(m.circ.net, m.circ.v0)
-    sim = d.Simulation("bench_farm", d.LogLevel.off)
-    sim.set_system(built.sys)
-    sim.set_domain(d.Domain.EMT)
-    sim.set_time_step(m.h)
-    sim.set_final_time(SIM_S + 1.0)
-    sim.do_init_from_nodes_and_terminals(True)
-    n = int(round(SIM_S / m.h))
-    sim.start()
-    c0 = time.process_time()
-    for _ in range(n):
-        sim.next()
-    cpu = time.process_time() - c0
-    sim.stop()
-    return {"cpu_s_per_sim_s": cpu / SIM_S, "us_per_step": cpu / n * 1e6, "steps": n}
+    return _solver_cost("bench_farm", netlist.build(m.circ.net, m.circ.v0).sys, m.h)
 
 
 def main() -> None:
