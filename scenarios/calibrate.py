@@ -41,6 +41,7 @@ from functools import partial
 import networkx as nx
 import numpy as np
 
+from plant.backend import close_backend
 from plant.service.model import build_model
 from scenarios import configs
 from scenarios.calibration_probe import PilotSetup, plant_scheduling, probe
@@ -271,6 +272,7 @@ class Calibration:
             with plant_scheduling(realtime) as setup.scheduling:  # as the plant service steps
                 trials = search(lambda k: self._trial(setup, k), start)
         finally:
+            close_backend(getattr(setup, "model", None))  # (the EMT backend stops its DPsim simulation)
             for sock in setup.socks.values():
                 sock.close()
             if pilot is not None:
