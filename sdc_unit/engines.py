@@ -177,7 +177,9 @@ class CompiledEngine:
         p, dt = visc.p, visc.dtype
         if tuple(jit.OUT_ROWS) != OUT_FIELDS:  # advance_slots hands the kernel's output rows out as OUT_FIELDS
             raise RuntimeError(f"tustin_jit.OUT_ROWS {jit.OUT_ROWS} differ from OUT_FIELDS {OUT_FIELDS}")
-        flags = (p.freeze_vf_when_limited, p.omega_s_measured, p.avr_antiwindup, p.ff_filtered, visc.swing.wrap)
+        switches = dict(freeze_vf_when_limited=p.freeze_vf_when_limited, omega_s_measured=p.omega_s_measured,
+                        avr_antiwindup=p.avr_antiwindup, ff_filtered=p.ff_filtered, wrap=visc.swing.wrap)
+        flags = tuple(switches[name] for name in jit.FLAG_NAMES)  # in the kernel's order, by name
         if any(np.ndim(f) for f in flags):
             return None  # per-instance switches: the numpy pass handles them
         consts = dict(one=1.0, zero=0.0, two=2.0, two_pi=2.0 * np.pi, swing_scale_ts=visc.swing.scale * visc.ts,

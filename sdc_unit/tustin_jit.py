@@ -55,6 +55,13 @@ CONST_NAMES = ("one", "zero", "two", "two_pi", "swing_scale_ts", "p_ref", "e_ref
 # flags F (int64)
 FLAG_NAMES = ("freeze_vf_when_limited", "omega_s_measured", "avr_antiwindup", "ff_filtered", "wrap")
 MEM_ROWS = ("limited", "ild", "ilq", "vmag", "q", "vfr")
+# where the kernel finds each constant and flag: from the names above, never a number typed here
+(_K_ONE, _K_ZERO, _K_TWO, _K_TWO_PI, _K_SWING_SCALE_TS, _K_P_REF, _K_E_REF, _K_I_MAX, _K_L_F, _K_R_V, _K_L_V,
+ _K_LPF_D_DC, _K_LPF_Q_DC) = (CONST_NAMES.index(n) for n in (
+    "one", "zero", "two", "two_pi", "swing_scale_ts", "p_ref", "e_ref", "i_max", "l_f", "r_v", "l_v", "lpf_d_dc",
+    "lpf_q_dc"))
+_FLAG_FREEZE_VF, _FLAG_OMEGA_S_MEASURED, _FLAG_AVR_ANTIWINDUP, _FLAG_FF_FILTERED, _FLAG_WRAP = (
+    FLAG_NAMES.index(n) for n in ("freeze_vf_when_limited", "omega_s_measured", "avr_antiwindup", "ff_filtered", "wrap"))
 OUT_ROWS = ("v_ref_d", "v_ref_q", "i_ref_d", "i_ref_q", "delta", "omega", "e_mag", "v_f", "p_e")
 REF_ROWS = ("v_ref", "m_q", "q_ref", "supp")
 
@@ -99,23 +106,24 @@ def _pi(X, C, blk, i, e, hold, new):
 
 @njit
 def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
-    one, zero, two, two_pi, sc_ts = K[0], K[1], K[2], K[3], K[4]
-    p_ref, e_ref, i_max, l_f, r_v, l_v = K[5], K[6], K[7], K[8], K[9], K[10]
+    one, zero, two, two_pi, sc_ts = K[_K_ONE], K[_K_ZERO], K[_K_TWO], K[_K_TWO_PI], K[_K_SWING_SCALE_TS]
+    p_ref, e_ref, i_max, l_f = K[_K_P_REF], K[_K_E_REF], K[_K_I_MAX], K[_K_L_F]
+    r_v, l_v = K[_K_R_V], K[_K_L_V]
     v_d, v_q, i_d, i_q, p, q = M[_M_VD, i], M[_M_VQ, i], M[_M_ID, i], M[_M_IQ, i], M[_M_P, i], M[_M_Q, i]
     omega_meas = M[_M_OMEGA, i]
-    hold_vf = F[0] != 0 and lim_prev
+    hold_vf = F[_FLAG_FREEZE_VF] != 0 and lim_prev
     # v_f low-pass (held at its output while limited, if so configured)
     if hold_vf:
         vfd = X[2 * _LPF_D + 1, i]
-        new[2 * _LPF_D] = vfd / K[11]
+        new[2 * _LPF_D] = vfd / K[_K_LPF_D_DC]
         new[2 * _LPF_D + 1] = vfd
         vfq = X[2 * _LPF_Q + 1, i]
-        new[2 * _LPF_Q] = vfq / K[12]
+        new[2 * _LPF_Q] = vfq / K[_K_LPF_Q_DC]
         new[2 * _LPF_Q + 1] = vfq
     else:
         vfd = _fo(X, C, _LPF_D, i, v_d, new)
         vfq = _fo(X, C, _LPF_Q, i, v_q, new)
-    om_s = omega_meas if F[1] != 0 else one
+    om_s = omega_meas if F[_FLAG_OMEGA_S_MEASURED] != 0 else one
     # swing
     p_lim = v_d * ild_pred + v_q * ilq_pred
     p_e = p_lim if lim_prev else p
@@ -126,7 +134,7 @@ def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
           + C[_SWC + 3, i] * w + C[_SWC + 4, i] * w1 + C[_SWC + 5, i] * w2)
     dev = (dl - d1) / sc_ts
     d_prev = d1
-    if F[4] != 0:
+    if F[_FLAG_WRAP] != 0:
         m = np.rint(dl / two_pi)
         dl = dl - m * two_pi
         d_prev = d_prev - m * two_pi
@@ -140,13 +148,13 @@ def _evaluate(X, C, K, F, M, R, i, lim_prev, ild_pred, ilq_pred, new, mem, out):
     # AVR
     vmag = math.hypot(vfd, vfq)
     e = (R[0, i] - vmag) + R[1, i] * (R[2, i] - q)
-    u = _pi(X, C, _AVR, i, e, F[2] != 0 and lim_prev, new)
+    u = _pi(X, C, _AVR, i, e, F[_FLAG_AVR_ANTIWINDUP] != 0 and lim_prev, new)
     e_mag = u + e_ref + vfr_app
     # quasi-stationary model and circular limiter (the law's own helpers, compiled)
     isd, isq = _qsem_current(e_mag, dl, vfd, vfq, omega, r_v, l_v)
     ild, ilq, limited = _circular_limit(isd, isq, i_max)
     # inner current loop
-    ffd, ffq = (vfd, vfq) if F[3] != 0 else (v_d, v_q)
+    ffd, ffq = (vfd, vfq) if F[_FLAG_FF_FILTERED] != 0 else (v_d, v_q)
     out[0] = ffd - l_f * i_q + _pi(X, C, _PI_D, i, ild - i_d, False, new)
     out[1] = ffq + l_f * i_d + _pi(X, C, _PI_Q, i, ilq - i_q, False, new)
     out[2], out[3], out[4], out[5], out[6], out[7], out[8] = ild, ilq, dl, omega, e_mag, vfr_app, p_e
