@@ -14,6 +14,12 @@ from scenarios import impairments
 from scenarios.cli_session import SessionCommands
 
 
+def status_header(st: dict, duration: float | None) -> str:
+    """``status``'s first line from the plant's live status (:meth:`RunState.progress_status`)."""
+    return (f"t_sim={st.get('t_sim', 0):.2f} s (timeline {f'{duration:g} s' if duration else 'open-ended'})"
+            f"  late_steps={st.get('late_steps', 0)}  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
+
+
 class TestbedCLI(SessionCommands, CLI):
     """Mininet CLI with ``status``, ``tables``, ``paths``, ``visc``, ``link`` and ``summary``; in an
     interactive session also ``kill``, ``events``, ``watch`` and feedback (:mod:`scenarios.cli_session`)."""
@@ -29,13 +35,10 @@ class TestbedCLI(SessionCommands, CLI):
 
     def do_status(self, _line):
         """status: simulated time, late steps, packets, ViSC turbines and down links."""
-        st = self.testbed.plant_status() or {}
+        st = self.testbed.progress_status()  # (a real card's: time from the run's clock, counts n/a)
         sdn = self.testbed.sdn_state() or {}
         tables = sdn.get("tables", {})
-        duration = self.testbed.scenario.duration_s
-        print(f"t_sim={st.get('t_sim', 0):.2f} s (timeline {f'{duration:g} s' if duration else 'open-ended'})"
-              f"  late_steps={st.get('late_steps', 0)}"
-              f"  meas_tx={st.get('meas_tx', 0)}  ctrl_rx={st.get('ctrl_rx', 0)}")
+        print(status_header(st, self.testbed.scenario.duration_s))
         print(f"ViSC turbines: {', '.join(st.get('streaming', [])) or '-'}   active SDC: {tables.get('active_sdc')}")
         taken = ", ".join(f"{a}-{b}" for a, b in sorted(self.testbed.links_down)) or "-"  # by this run, now
         seen = ", ".join("-".join(link) for link in tables.get("down_links") or []) or "-"  # published every 0.1 s

@@ -7,6 +7,7 @@ from __future__ import annotations
 import json
 from types import SimpleNamespace
 
+from scenarios.cli_ext import status_header
 from scenarios.feedback import progress_line
 from scenarios.run_state import RunState
 
@@ -42,3 +43,11 @@ def test_a_written_status_is_shown_as_it_is(tmp_path):
         line = progress_line(_state(tmp_path, emulate).progress_status(), 5.0)
         assert "t=  1.25/5.00 s" in line and "meas_tx=10" in line and "ctrl_rx=9" in line
     assert _state(tmp_path / "none", None).plant_status() is None  # no status written yet: nothing invented
+
+
+def test_the_cli_status_of_a_real_cards_run_says_n_a_not_0(tmp_path):
+    line = status_header(_state(tmp_path, emulate=False).progress_status(), 5.0)
+    assert line.startswith("t_sim=2.50 s (timeline 5 s)")
+    assert "late_steps=n/a" in line and "meas_tx=n/a" in line and "ctrl_rx=n/a" in line
+    (tmp_path / "plant_status.json").write_text(json.dumps({"t_sim": 1.0, "late_steps": 0, "meas_tx": 7, "ctrl_rx": 6}))
+    assert "meas_tx=7  ctrl_rx=6" in status_header(_state(tmp_path, emulate=None).progress_status(), None)
