@@ -109,6 +109,8 @@ def _emt_model(cfg: PlantConfig, names: list[str]):
 
     if cfg.batteries:
         raise ValueError("plant.model emt has no batteries (its farm is one aggregated injection at the PCC)")
+    if cfg.onshore_units == 0:
+        return _emt_farm_model(cfg, names)
     if cfg.onshore_units != 1:
         raise ValueError(f"plant.model emt is the paper's comparison arrangement: it needs topology.onshore_units: 1 "
                          f"(its SDViSC, host wt6_1), not {cfg.onshore_units}")
@@ -122,6 +124,22 @@ def _emt_model(cfg: PlantConfig, names: list[str]):
                          f"p_star {refused} cannot be applied")
     model = EmtServiceBackend(n_farm, cfg.step_s, grid=cfg.grid.given(), remote_apply=cfg.remote_apply,
                               remote_loss_fallback_s=cfg.remote_loss_fallback_s, duration_s=cfg.duration_s)
+    return model, indices
+
+
+def _emt_farm_model(cfg: PlantConfig, names: list[str]):
+    """``emt`` without onshore units: F8's farm arrangement with the four SDViSCs of cluster 3
+    (:class:`plant.emt.farm_service.EmtFarmServiceBackend`); every turbine host is a farm turbine (its
+    ``plant_index``), only wt3_1..wt3_4 have a converter of their own. Refuses a P* other than 0."""
+    from plant.emt.farm_service import N_FARM, EmtFarmServiceBackend
+
+    given = endpoint_indices(cfg)
+    indices = [farm_index(name, N_FARM, 0, given.get(name)) for name in names]
+    refused = {name: p for name, p in cfg.p_star.items() if p != 0.0}
+    if refused:
+        raise ValueError(f"plant.model emt's farm arrangement runs its SDViSCs at P* = 0: p_star {refused} cannot be applied")
+    model = EmtFarmServiceBackend(cfg.step_s, grid=cfg.grid.given(), remote_apply=cfg.remote_apply,
+                                  remote_loss_fallback_s=cfg.remote_loss_fallback_s, duration_s=cfg.duration_s)
     return model, indices
 
 
