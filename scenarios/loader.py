@@ -288,9 +288,14 @@ class _Parts:
             problems.append((("topology", "onshore_units"), f"onshore units are converters of the full farm "
                              f"model (PlantParams.onshore_units) or the EMT arrangement's SDViSC: needs plant.model: "
                              f"full or emt, not {self.model}"))
-        if self.model == "emt" and self.topology.option("onshore_units") != 1:
-            problems.append((("plant", "model"), "plant.model emt is the paper's comparison arrangement: it needs "
-                             "topology.onshore_units: 1 (its SDViSC, host wt6_1; the farm is one aggregated injection)"))
+        onshore = self.topology.option("onshore_units")
+        farm_visc = ("wt3_1", "wt3_2", "wt3_3", "wt3_4")  # plant.emt.farm_service.VISC_HOSTS (no DPsim import here)
+        off_farm = sorted({e.wt for _, e in self.events if e.do == "visc_on" and e.wt not in farm_visc})
+        if self.model == "emt" and (onshore not in (0, None, 1) or (not onshore and off_farm)):
+            problems.append((("plant", "model"), "plant.model emt is the paper's comparison arrangement (topology."
+                             "onshore_units: 1, its SDViSC host wt6_1) or, without onshore units, F8's farm "
+                             f"arrangement whose SDViSCs are {', '.join(farm_visc)}"
+                             + (f": visc_on {', '.join(off_farm)} has no converter there" if off_farm else "")))
         for i, event in self.events:
             if event.do == "set" and event.param not in settable:
                 problems.append((("timeline", i, "param"),

@@ -105,3 +105,15 @@ def test_the_aggregated_turbines_refuse_remote_control_and_the_arrangement_refus
             core.model.set_scr(1.51)
     finally:
         close_backend(core.model)
+
+
+def test_plant_emt_on_f8_picks_the_farm_arrangement_and_refuses_a_visc_elsewhere():
+    from pathlib import Path
+
+    from scenarios.loader import Override, ScenarioError, load_scenario
+
+    root = Path(__file__).resolve().parents[2]
+    emt = Override("--plant", "emt", ("plant", "model"), "emt")
+    assert load_scenario(root / "scenarios" / "paper" / "f8_parallel_droop.yaml", [emt]).plant.model == "emt"
+    with pytest.raises(ScenarioError, match=r"farm arrangement whose SDViSCs are wt3_1.*visc_on wt1_1"):
+        load_scenario(root / "scenarios" / "paper" / "f1_tustin_vs_hd.yaml", [emt])
