@@ -38,9 +38,11 @@ def farm_core() -> PlantCore:
     return PlantCore(cfg, model, indices)
 
 
-def run_loop(core: PlantCore, seconds: float) -> dict[int, int]:
+def run_loop(core: PlantCore, seconds: float, fault: dict | None = None, trace: list | None = None) -> dict[int, int]:
     """STREAM_START for the four SDViSCs, then every MEAS answered by the SDC's Tustin law (one law per
-    turbine, its m_q) before the plant's next step. Returns the CTRLs sent per wt id."""
+    turbine, its m_q) before the plant's next step; ``fault``: step index -> on/off (the service's event);
+    ``trace``: (t, PCC |V1|, the largest SDViSC current [own base]) appended after each step. Returns the
+    CTRLs sent per wt id."""
     ts = core.step_s
     for name in list(WIDS)[:4]:
         ep = next(e for e in core.endpoints if e.name == name)
@@ -48,8 +50,10 @@ def run_loop(core: PlantCore, seconds: float) -> dict[int, int]:
     laws, sent, pending = {}, dict.fromkeys(list(WIDS.values())[:4], 0), []
     eps = {e.name: e for e in core.endpoints}
     by_wid = {w: eps[n] for n, w in WIDS.items()}
-    for _ in range(int(round(seconds / ts))):
+    for k in range(int(round(seconds / ts))):
         now = core.k * ts
+        if fault is not None and k in fault:
+            core.apply_event({"type": "fault", "on": fault[k]})
         for wid, data in pending:
             core.receive(by_wid[wid], data, (SDC, wire.PORT_SDC), now)
         pending = []
@@ -69,6 +73,9 @@ def run_loop(core: PlantCore, seconds: float) -> dict[int, int]:
                       **{f: float(getattr(o, f)[0]) for f in CTRL_VALUES}}
             pending.append((wid, wire.encode(wire.MsgType.CTRL, values, header=wire.Header(msg["seq"], int(now), 0))))
             sent[wid] += 1
+        if trace is not None:
+            m = core.model
+            trace.append((m.t, abs(m.v_pcc1), max(abs(i) for i in m.i_net) / m.circ.k_unit))
     return sent
 
 
@@ -92,6 +99,24 @@ def test_four_sdviscs_close_their_loops_and_settle_at_the_offline_farms_state():
     assert np.all(np.abs(q_service - q_offline) < TOL_Q), (q_service, q_offline)
     assert abs(v_service - v_offline) < TOL_V, (v_service, v_offline)
     assert np.ptp(q_service) > 5 * TOL_Q  # the droops share Q unequally: the law is acting, not a held state
+
+
+def test_the_four_loops_ride_through_an_slg_fault_at_the_pcc_within_the_local_current_limit():
+    core = farm_core()
+    trace: list = []
+    try:
+        ts = core.step_s
+        run_loop(core, 1.5, fault={round(0.5 / ts): True, round(0.65 / ts): False}, trace=trace)
+        assert not core.model.fallbacks.any()
+    finally:
+        close_backend(core.model)
+    t, v, i = (np.array(x) for x in zip(*trace))
+    before = v[(t > 0.4) & (t < 0.5)]
+    assert np.ptp(before) < 1e-3
+    assert v[(t > 0.5) & (t < 0.65)].min() < 0.8 * before.mean()  # the fault (measured 0.57)
+    assert np.all(np.isfinite(v)) and abs(v[-1] - before.mean()) < 0.01  # back after clearance
+    # i_max_local 1.5 p.u. plus one circuit step's overshoot past the prediction (measured 1.547)
+    assert i.max() < 1.6
 
 
 def test_the_aggregated_turbines_refuse_remote_control_and_the_arrangement_refuses_an_sc():
