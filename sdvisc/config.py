@@ -173,8 +173,10 @@ class PlantOptions(_Config):
     """The plant's options a scenario sets (its ``plant`` section)."""
 
     model: Literal["minimal", "full", "emt", "external"] = Field("minimal", description=(
-        "minimal: infinite bus; full: the 500 MW farm; emt: the paper's comparison arrangement in EMT on DPsim "
-        "(the onshore SDViSC wt6_1 beside the aggregated farm, plant/emt/service_backend.py; the emt extra); "
+        "minimal: infinite bus; full: the 500 MW farm; emt: EMT on DPsim (the emt extra): with topology.onshore_units "
+        "1 the paper's comparison arrangement (the onshore SDViSC wt6_1 beside the aggregated farm, "
+        "plant/emt/service_backend.py), without onshore units F8's farm (the four SDViSCs wt3_1..wt3_4, "
+        "plant/emt/farm_service.py); "
         "external: no plant process, an external GTNET-SKT peer (a scenario's plant.peer) sends the turbines' "
         "measurements"))
     record: list[TurbineName] = Field(default_factory=list, description=(
