@@ -35,7 +35,7 @@ import time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from plant.emt import arrangement, netlist  # noqa: E402
-from plant.emt.dpsim_env import dpsim  # noqa: E402
+from plant.emt.dpsim_env import emt_simulation  # noqa: E402
 from plant.emt.farm import EmtFarm  # noqa: E402
 from plant.emt.model import EmtComparison  # noqa: E402
 from sdvisc.jsonlines import write_json_atomic
@@ -54,13 +54,7 @@ def with_exchange(device: str, law_every: int = 1, k_ad: float | None = None) ->
 
 def _solver_cost(name: str, system, h: float) -> dict:
     """DPsim's own EMT step on ``system`` at ``h`` for SIM_S, nothing exchanged between steps."""
-    d = dpsim()
-    sim = d.Simulation(name, d.LogLevel.off)
-    sim.set_system(system)
-    sim.set_domain(d.Domain.EMT)
-    sim.set_time_step(h)
-    sim.set_final_time(SIM_S + 1.0)
-    sim.do_init_from_nodes_and_terminals(True)
+    sim = emt_simulation(name, system, h, SIM_S + 1.0)
     n = int(round(SIM_S / h))
     sim.start()
     c0 = time.process_time()

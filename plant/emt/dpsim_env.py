@@ -52,6 +52,19 @@ def dpsim():
     return _DPSIM
 
 
+def emt_simulation(name: str, system, step_s: float, final_time_s: float):
+    """A DPsim EMT simulation of ``system`` at ``step_s`` up to ``final_time_s``, initialised from the
+    system's node voltages and terminals (no start-up transient), its logging off; not started."""
+    d = dpsim()
+    sim = d.Simulation(name, d.LogLevel.off)
+    sim.set_system(system)
+    sim.set_domain(d.Domain.EMT)
+    sim.set_time_step(step_s)
+    sim.set_final_time(final_time_s)
+    sim.do_init_from_nodes_and_terminals(True)
+    return sim
+
+
 @contextlib.contextmanager
 def native_stdout_silenced():
     """File descriptors 1 and 2 sent to /dev/null for the block: DPsim's C++ prints "Handle event time ..."

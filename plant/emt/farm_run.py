@@ -35,7 +35,7 @@ import time
 import numpy as np
 
 from plant.emt import frame, netlist
-from plant.emt.dpsim_env import dpsim, native_stdout_silenced
+from plant.emt.dpsim_env import dpsim, emt_simulation, native_stdout_silenced
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
 EXCHANGES = ("step", "ts")
@@ -103,12 +103,7 @@ def _store_dsc(k: int, tk: float, vt_attr: list, i_attr: list, dsc_v: list, dsc_
 
 def _simulation(m, built, t_end: float, fault):
     d = dpsim()
-    sim = d.Simulation("sdvisc_emt_farm", d.LogLevel.off)
-    sim.set_system(built.sys)
-    sim.set_domain(d.Domain.EMT)
-    sim.set_time_step(m.h)
-    sim.set_final_time(t_end + 10 * m.h)
-    sim.do_init_from_nodes_and_terminals(True)
+    sim = emt_simulation("sdvisc_emt_farm", built.sys, m.h, t_end + 10 * m.h)
     if fault is not None:
         sim.add_event(d.event.SwitchEvent3Ph(round(fault[0] / m.h) * m.h - 0.5 * m.h, built.comps["fault"], True))
     return sim

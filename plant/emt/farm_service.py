@@ -33,7 +33,7 @@ import numpy as np
 
 from plant import turbine as T
 from plant.emt import frame, netlist
-from plant.emt.dpsim_env import dpsim
+from plant.emt.dpsim_env import dpsim, emt_simulation
 from plant.emt.farm import EmtFarm
 from plant.emt.farm_run import SQRT3
 from plant.emt.service_backend import OPEN_ENDED_FINAL_S, STEPS_PER_TS, Pll
@@ -98,12 +98,8 @@ class EmtFarmServiceBackend:
         d = dpsim()
         c = self.circ
         self.built = b = netlist.build(c.net, c.v0)
-        sim = self.sim = d.Simulation("sdvisc_emt_farm_service", d.LogLevel.off)
-        sim.set_system(b.sys)
-        sim.set_domain(d.Domain.EMT)
-        sim.set_time_step(self.h)
-        sim.set_final_time((duration_s if duration_s is not None else OPEN_ENDED_FINAL_S) + 10 * self.step_s)
-        sim.do_init_from_nodes_and_terminals(True)
+        sim = self.sim = emt_simulation("sdvisc_emt_farm_service", b.sys, self.h,
+                                        (duration_s if duration_s is not None else OPEN_ENDED_FINAL_S) + 10 * self.step_s)
         nu = c.n_visc
         self._vt = [b.nodes[f"t{j}"].attr("v") for j in range(nu)]
         self._i = [b.comps[f"lf{j}"].attr("i_intf") for j in range(nu)]

@@ -13,7 +13,7 @@ import numpy as np
 
 from plant.emt import arrangement, frame
 from plant.emt.devices import CondenserEmf, FarmInjection, ViscConverter
-from plant.emt.dpsim_env import dpsim, native_stdout_silenced
+from plant.emt.dpsim_env import dpsim, emt_simulation, native_stdout_silenced
 from plant.emt.operating_point import from_phasor_plant
 from sdvisc.vocabulary import F_NOMINAL_HZ
 
@@ -63,12 +63,7 @@ class EmtComparison:
         base (``i_dev_abc``), Park phasors, ``wall_s`` and ``cpu_s``."""
         d = dpsim()
         circ = arrangement.build(self.op, self.fault_kind)
-        sim = d.Simulation(f"sdvisc_emt_{self.device}", d.LogLevel.off)
-        sim.set_system(circ.sys)
-        sim.set_domain(d.Domain.EMT)
-        sim.set_time_step(self.h)
-        sim.set_final_time(t_end + 10 * self.h)
-        sim.do_init_from_nodes_and_terminals(True)
+        sim = emt_simulation(f"sdvisc_emt_{self.device}", circ.sys, self.h, t_end + 10 * self.h)
         k_clear = None
         if fault is not None:  # closed at its instant; opened at the first zero of the fault current after the
             # clearing instant, as a breaker interrupts (a current chopped in an inductor makes the trapezoidal

@@ -48,7 +48,7 @@ import numpy as np
 from plant import turbine as T
 from plant.emt import arrangement, frame
 from plant.emt.devices import FarmInjection, ViscConverter
-from plant.emt.dpsim_env import dpsim
+from plant.emt.dpsim_env import dpsim, emt_simulation
 from plant.emt.operating_point import from_phasor_plant
 from plant.turbine_laws import remote_current_limit
 from sdvisc.vocabulary import F_NOMINAL_HZ, OMEGA0
@@ -151,12 +151,8 @@ class EmtServiceBackend:
     def _start(self, fault_kind: str, duration_s: float | None) -> None:
         d = dpsim()
         self.circuit = circ = arrangement.build(self.op, fault_kind)
-        sim = self.sim = d.Simulation("sdvisc_emt_service", d.LogLevel.off)
-        sim.set_system(circ.sys)
-        sim.set_domain(d.Domain.EMT)
-        sim.set_time_step(self.h)
-        sim.set_final_time((duration_s if duration_s is not None else OPEN_ENDED_FINAL_S) + 10 * self.step_s)
-        sim.do_init_from_nodes_and_terminals(True)
+        sim = self.sim = emt_simulation("sdvisc_emt_service", circ.sys, self.h,
+                                        (duration_s if duration_s is not None else OPEN_ENDED_FINAL_S) + 10 * self.step_s)
         c, nd = circ.comps, circ.nodes
         self._conv_ref = c["visc_conv"].attr("V_ref")  # attribute handles fetched once (~30 µs each)
         self._farm_ref = c["farm"].attr("I_ref")
