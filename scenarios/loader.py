@@ -13,6 +13,7 @@ from pathlib import Path
 
 from pydantic import TypeAdapter, ValidationError
 
+from plant.emt import FARM_VISC_HOSTS
 from plant.settable import ACTIONS as PLANT_ACTIONS
 from plant.settable import model_class, relative_params, settable_params, supported_actions
 from scenarios.cluster_spec import ClusterSpec, cluster_problems
@@ -289,7 +290,7 @@ class _Parts:
                              f"model (PlantParams.onshore_units) or the EMT arrangement's SDViSC: needs plant.model: "
                              f"full or emt, not {self.model}"))
         onshore = self.topology.option("onshore_units")
-        farm_visc = ("wt3_1", "wt3_2", "wt3_3", "wt3_4")  # plant.emt.farm_service.VISC_HOSTS (no DPsim import here)
+        farm_visc = FARM_VISC_HOSTS
         off_farm = sorted({e.wt for _, e in self.events if e.do == "visc_on" and e.wt not in farm_visc})
         if self.model == "emt" and (onshore not in (0, None, 1) or (not onshore and off_farm)):
             problems.append((("plant", "model"), "plant.model emt is the paper's comparison arrangement (topology."

@@ -11,3 +11,7 @@ in three-phase electromagnetic transients, stepped from Python.
   grid-following injection);
 * :mod:`plant.emt.model`: :class:`~plant.emt.model.EmtComparison`, the stepped run with events.
 """
+
+FARM_VISC_HOSTS = ("wt3_1", "wt3_2", "wt3_3", "wt3_4")
+"""The SDViSCs of F8's farm arrangement (cluster 3, :mod:`plant.emt.farm_service`): here, without any
+import, so that the scenario loader checks a scenario against them without loading DPsim."""

@@ -32,7 +32,7 @@ import math
 import numpy as np
 
 from plant import turbine as T
-from plant.emt import frame, netlist
+from plant.emt import FARM_VISC_HOSTS, frame, netlist
 from plant.emt.dpsim_env import dpsim, emt_simulation
 from plant.emt.farm import EmtFarm
 from plant.emt.farm_run import SQRT3
@@ -40,7 +40,7 @@ from plant.emt.service_backend import OPEN_ENDED_FINAL_S, STEPS_PER_TS, Pll
 from plant.turbine_laws import remote_current_limit
 from sdvisc.vocabulary import F_NOMINAL_HZ, OMEGA0
 
-VISC_HOSTS = ("wt3_1", "wt3_2", "wt3_3", "wt3_4")
+VISC_HOSTS = FARM_VISC_HOSTS
 """The arrangement's SDViSC turbines (F8: the leftmost four of cluster 3, plant.cases.visc_indices(4))."""
 N_FARM = 50
 """The farm's turbines (PlantParams: 5 clusters x 10)."""
