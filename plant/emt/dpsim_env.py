@@ -65,6 +65,22 @@ def emt_simulation(name: str, system, step_s: float, final_time_s: float):
     return sim
 
 
+class OwnsSimulation:
+    """A backend that steps a DPsim simulation it started (``self.sim``): :meth:`close` stops it, once."""
+
+    def _started(self, sim) -> None:
+        """``sim`` (:func:`emt_simulation`, its attribute handles fetched) started and now owned."""
+        self.sim = sim
+        sim.start()
+        self._running = True
+
+    def close(self) -> None:
+        """Stop DPsim's simulation (idempotent)."""
+        if getattr(self, "_running", False):
+            self._running = False
+            self.sim.stop()
+
+
 @contextlib.contextmanager
 def native_stdout_silenced():
     """File descriptors 1 and 2 sent to /dev/null for the block: DPsim's C++ prints "Handle event time ..."

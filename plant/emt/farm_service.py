@@ -33,7 +33,7 @@ import numpy as np
 
 from plant import turbine as T
 from plant.emt import FARM_VISC_HOSTS, frame, netlist
-from plant.emt.dpsim_env import dpsim, emt_simulation
+from plant.emt.dpsim_env import OwnsSimulation, dpsim, emt_simulation
 from plant.emt.farm import EmtFarm
 from plant.emt.farm_run import SQRT3
 from plant.emt.service_backend import OPEN_ENDED_FINAL_S, STEPS_PER_TS, Pll
@@ -46,7 +46,7 @@ N_FARM = 50
 """The farm's turbines (PlantParams: 5 clusters x 10)."""
 
 
-class EmtFarmServiceBackend:
+class EmtFarmServiceBackend(OwnsSimulation):
     """F8's farm arrangement with four SDViSCs behind GTNET-SKT endpoints (module docstring). ``grid``: the
     phasor plant's grid keys; ``duration_s``: DPsim's final time (None: open-ended); ``fault_kind``: "slg"
     or "3ph"."""
@@ -98,7 +98,7 @@ class EmtFarmServiceBackend:
         d = dpsim()
         c = self.circ
         self.built = b = netlist.build(c.net, c.v0)
-        sim = self.sim = emt_simulation("sdvisc_emt_farm_service", b.sys, self.h,
+        sim = emt_simulation("sdvisc_emt_farm_service", b.sys, self.h,
                                         (duration_s if duration_s is not None else OPEN_ENDED_FINAL_S) + 10 * self.step_s)
         nu = c.n_visc
         self._vt = [b.nodes[f"t{j}"].attr("v") for j in range(nu)]
@@ -108,14 +108,7 @@ class EmtFarmServiceBackend:
         self._farm_ref = b.comps["farm"].attr("I_ref")
         self._fault = b.comps["fault"]
         self._to_abc = d.Math.single_phase_variable_to_three_phase
-        sim.start()
-        self._running = True
-
-    def close(self) -> None:
-        """Stop DPsim's simulation (idempotent)."""
-        if getattr(self, "_running", False):
-            self._running = False
-            self.sim.stop()
+        self._started(sim)
 
     # ------------------------------------------------------------------ commands
     def _unit_slots(self, index) -> list[int]:

@@ -48,7 +48,7 @@ import numpy as np
 from plant import turbine as T
 from plant.emt import arrangement, frame
 from plant.emt.devices import FarmInjection, ViscConverter
-from plant.emt.dpsim_env import dpsim, emt_simulation
+from plant.emt.dpsim_env import OwnsSimulation, dpsim, emt_simulation
 from plant.emt.operating_point import from_phasor_plant
 from plant.turbine_laws import remote_current_limit
 from sdvisc.vocabulary import F_NOMINAL_HZ, OMEGA0
@@ -89,7 +89,7 @@ class Pll:
         return self.omega
 
 
-class EmtServiceBackend:
+class EmtServiceBackend(OwnsSimulation):
     """The comparison arrangement with its SDViSC behind a GTNET-SKT endpoint (module docstring).
 
     ``n_farm``: the farm's turbines (indices before the unit's); ``step_s``: Ts; ``grid``: the phasor
@@ -151,7 +151,7 @@ class EmtServiceBackend:
     def _start(self, fault_kind: str, duration_s: float | None) -> None:
         d = dpsim()
         self.circuit = circ = arrangement.build(self.op, fault_kind)
-        sim = self.sim = emt_simulation("sdvisc_emt_service", circ.sys, self.h,
+        sim = emt_simulation("sdvisc_emt_service", circ.sys, self.h,
                                         (duration_s if duration_s is not None else OPEN_ENDED_FINAL_S) + 10 * self.step_s)
         c, nd = circ.comps, circ.nodes
         self._conv_ref = c["visc_conv"].attr("V_ref")  # attribute handles fetched once (~30 µs each)
@@ -160,14 +160,7 @@ class EmtServiceBackend:
         self._v_t_attr = nd["visc_t"].attr("v")
         self._i_attr = c["visc_lf"].attr("i_intf")
         self._to_abc = d.Math.single_phase_variable_to_three_phase
-        sim.start()
-        self._running = True
-
-    def close(self) -> None:
-        """Stop DPsim's simulation (idempotent)."""
-        if getattr(self, "_running", False):
-            self._running = False
-            self.sim.stop()
+        self._started(sim)
 
     # ------------------------------------------------------------------ commands
     def _check_unit(self, index) -> None:
