@@ -211,8 +211,10 @@ class SdcCore:
             owner.counts["ctrl_tx"] -= 1
             owner.counts["ctrl_tx_error"] = owner.counts.get("ctrl_tx_error", 0) + 1
 
-    def summary(self, shim: dict | None = None) -> dict:
-        """The stats file's content; ``shim``: the service's own counters (after ``heartbeats_tx``)."""
+    def summary(self, shim: dict | None = None, delays: bool = True) -> dict:
+        """The stats file's content; ``shim``: the service's own counters (after ``heartbeats_tx``);
+        without ``delays`` no delay percentiles (their cost grows with the run: the snapshots while
+        the SDC serves)."""
         wire_counts = self.rx_stats.as_dict()
         return {
             "sdc_id": self.sdc_id,
@@ -225,7 +227,7 @@ class SdcCore:
                          **self.rejected},
             "events": self.events,
             "turbines": {i.name: {**i.counts, "first_meas_rx_t": i.first_meas_rx_t,
-                                  "meas_one_way_ms": delay_summary(i.meas_delays_ms),
+                                  **({"meas_one_way_ms": delay_summary(i.meas_delays_ms)} if delays else {}),
                                   "meas_resumed": i.meas_resumed}
                          for i in self.instances.values()},
         }

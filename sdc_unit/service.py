@@ -159,8 +159,9 @@ class SdcService:
                 waiter.poll(IDLE_WAIT_S if until is None else min(IDLE_WAIT_S, max(0.0, until - time.time())))
                 # the run's one clock: stamps, delays and events in simulated seconds
                 self.wake(self.clock.now(), poller)
-                if self.stats_writer is not None and time.monotonic() >= self._next_snapshot:
-                    self._next_snapshot = time.monotonic() + STATS_PERIOD_S
+                woke = time.monotonic()
+                if self.stats_writer is not None and woke >= self._next_snapshot:
+                    self._next_snapshot = woke + STATS_PERIOD_S
                     self.stats_writer.put(json.dumps(self.snapshot()).encode())
         finally:
             self.running = False
@@ -171,21 +172,16 @@ class SdcService:
             os.close(fd)
 
     def snapshot(self) -> dict:
-        """The stats file while the SDC serves: the counts of :meth:`summary` without its delay
-        percentiles (their cost grows with the run), ``final`` False, ``t_written`` (run clock)."""
-        core = self.core
-        wire_counts = core.rx_stats.as_dict()
-        return {"sdc_id": core.sdc_id, "role": core.role, "final": False, "t_written": self.clock.now(),
-                "rx_wire": wire_counts, "heartbeats_tx": core.hb_seq, "unexpected_rx": core.unexpected_rx,
-                "rejected": {**{k: v for k, v in wire_counts.items() if k not in ("ok", "rejected") and v},
-                             **core.rejected},
-                "events": list(core.events),
-                "turbines": {i.name: {**i.counts, "first_meas_rx_t": i.first_meas_rx_t,
-                                      "meas_resumed": list(i.meas_resumed)} for i in core.instances.values()}}
+        """The stats file while the SDC serves: :meth:`summary` without its delay percentiles, ``final``
+        False, ``t_written`` (run clock)."""
+        return {"final": False, "t_written": self.clock.now()} | self.core.summary(self._shim_counts(), delays=False)
+
+    def _shim_counts(self) -> dict:
+        return {"gather_window_wall_s": self.gather_wall_s, "gathered": self.gathered,
+                "gather_incomplete": self.gather_incomplete}
 
     def summary(self) -> dict:
-        return {"final": True, "t_written": self.clock.now()} | self.core.summary({"gather_window_wall_s": self.gather_wall_s, "gathered": self.gathered,
-                                  "gather_incomplete": self.gather_incomplete})
+        return {"final": True, "t_written": self.clock.now()} | self.core.summary(self._shim_counts())
 
 
 def main(argv: list[str] | None = None) -> int:
