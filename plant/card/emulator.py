@@ -22,7 +22,7 @@ import sys
 import time
 from pathlib import Path
 
-from plant.card.core import CardCore, GtnetCardConfig  # noqa: F401 (GtnetCardConfig re-exported)
+from plant.card.core import CardCore, GtnetCardConfig
 from sdvisc.config import ConfigError, load_config
 from sdvisc.jsonlines import write_json_atomic
 from sdvisc.latest_writer import LatestWriter

@@ -30,9 +30,9 @@ import time
 from pathlib import Path
 
 from plant.backend import close_backend
-from plant.service.core import CTRL_GAP_STEPS, RTT_BINS, Endpoint, Pacing, PlantCore  # noqa: F401 (re-exported)
+from plant.service.core import Pacing, PlantCore
 from plant.service.live import STATUS_EVERY_S, LivePublisher
-from plant.service.model import FARM_TURBINES_PER_CLUSTER, apply_set, build_model, farm_index  # noqa: F401 (re-exported)
+from plant.service.model import build_model
 from plant.service.recorder import Recorder
 from plant.service.summary import summarise
 from sdvisc import wire
